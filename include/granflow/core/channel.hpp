@@ -1,0 +1,51 @@
+#pragma once
+// The inclined channel: length, slope and what happens at its two ends. Shared by all models;
+// each model turns a BoundarySpec into its own boundary condition.
+#include <Teuchos_ParameterList.hpp>
+
+#include <string>
+#include <vector>
+
+namespace granflow::core {
+
+enum class BoundaryType { Inflow, Outflow, Wall, Periodic };
+std::string to_string(BoundaryType t);
+
+/// Prescribed inflow: constant (h, u) or a piecewise-linear time series read from a CSV file
+/// with columns t,h,u (held constant beyond its last time).
+class InflowSeries {
+ public:
+  InflowSeries() = default;
+  InflowSeries(double h, double u);
+  /// Reads "t,h,u" rows (a header line is allowed). Throws InputError naming the file and line.
+  static InflowSeries from_csv(const std::string& file, const std::string& parameter_path);
+  double depth(double t) const;
+  double velocity(double t) const;
+  bool is_constant() const { return t_.size() <= 1; }
+
+ private:
+  double interp(const std::vector<double>& v, double t) const;
+  std::vector<double> t_{0.0}, h_{0.0}, u_{0.0};
+};
+
+struct BoundarySpec {
+  BoundaryType type = BoundaryType::Outflow;
+  InflowSeries inflow;  ///< used only when type == Inflow
+};
+
+struct Channel {
+  double length = 1.0;      ///< L [m]
+  double slope_deg = 50.0;  ///< zeta [deg]
+  BoundarySpec left, right;
+
+  static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
+  /// Reads a validated "Channel" list. `user` is the list as the user wrote it (before defaults
+  /// were filled in) so that inconsistent combinations, such as inflow data on a closed end,
+  /// are caught; `scene_dir` resolves relative file names.
+  static Channel from_parameters(const Teuchos::ParameterList& validated,
+                                 const Teuchos::ParameterList& user, const std::string& scene_dir);
+  double g_sin(double g) const;  ///< downslope gravity g sin zeta
+  double g_cos(double g) const;  ///< bed-normal gravity g cos zeta
+};
+
+}  // namespace granflow::core

@@ -1,0 +1,74 @@
+#pragma once
+// One time-stepping interface for every model (DAM, N-DAM, coupled), so that the run driver and
+// the domain manager treat them alike:  dt = stable_dt(); step(dt); check(); accept().
+// step() computes a tentative state; only accept() makes it current, so a step whose state fails
+// check() leaves the last good state (and its output and checkpoint) untouched.
+#include <nlohmann/json_fwd.hpp>
+
+#include <string>
+#include <vector>
+
+namespace granflow::io {
+class FieldWriter;
+class Checkpoint;
+}  // namespace granflow::io
+
+namespace granflow::core {
+
+/// Depth-averaged profile along the channel (the output contract's profiles.csv rows).
+struct Profile {
+  std::vector<double> x, h, u_mean, eps;
+  std::vector<std::string> model;  ///< "1D" or "2D" per point
+  void append(double xi, double hi, double ui, double epsi, const std::string& m) {
+    x.push_back(xi);
+    h.push_back(hi);
+    u_mean.push_back(ui);
+    eps.push_back(epsi);
+    model.push_back(m);
+  }
+};
+
+/// Mass (per unit channel width, m^2) and what crossed the boundaries.
+struct MassBalance {
+  double initial = 0.0;   ///< mass at t0
+  double current = 0.0;   ///< mass now
+  double inflow = 0.0;    ///< cumulative mass that entered through boundaries
+  double outflow = 0.0;   ///< cumulative mass that left through boundaries
+  double defect() const { return current - initial - inflow + outflow; }
+};
+
+/// Result of checking a tentative state: where, when and which quantity went wrong.
+struct Health {
+  bool ok = true;
+  std::string quantity;  ///< e.g. "h", "hu", "u"
+  double x = 0.0;        ///< where [m]
+  double value = 0.0;    ///< offending value
+  std::string reason;    ///< e.g. "not finite", "negative depth"
+};
+
+class Stepper {
+ public:
+  virtual ~Stepper() = default;
+  virtual std::string model_name() const = 0;
+  virtual double time() const = 0;
+  virtual long steps() const = 0;
+  /// Largest time step the model accepts in its current state (CFL and other limits).
+  virtual double stable_dt() const = 0;
+  /// Compute the state at time() + dt into a tentative buffer.
+  virtual void step(double dt) = 0;
+  /// Diagnose the tentative state (finite, positive depth, ...).
+  virtual Health check() const = 0;
+  /// Make the tentative state current.
+  virtual void accept() = 0;
+
+  virtual Profile profile() const = 0;
+  virtual MassBalance mass_balance() const = 0;
+  /// Field snapshot (HDF5 + XDMF).
+  virtual void write_fields(io::FieldWriter& w) const = 0;
+  virtual void save(io::Checkpoint& c) const = 0;
+  virtual void load(const io::Checkpoint& c) = 0;
+  /// Solver statistics for summary.json.
+  virtual void report(nlohmann::json& stats) const = 0;
+};
+
+}  // namespace granflow::core

@@ -1,0 +1,145 @@
+#pragma once
+// DAM: the one-dimensional depth-averaged granular flow model (Domnik et al. 2013, section 3;
+// Savage-Hutter on a plane):
+//
+//   h_t + (h u)_x = 0,                                                      (15)
+//   (h u)_t + (h u^2 + beta h^2 / 2)_x = s h,                               (16)
+//   s = g cos(zeta) (tan(zeta) - sgn(u) tan(delta)),   beta = g K cos(zeta),
+//   K_act/pas = 2 sec^2(phi) (1 -/+ sqrt(1 - cos^2(phi) sec^2(delta))) - 1  (active if u_x > 0).
+//
+// Numerics: the second-order non-oscillatory central (NOC, Nessyahu-Tadmor) scheme on a
+// time-staggered grid. Step n -> n+1 moves the cell centres by dx/2: the primary grid ("A") has
+// N cells with centres x0 + (j + 1/2) dx; the staggered grid ("B") has N + 1 cells centred on
+// x0 + j dx whose two end cells straddle the channel ends and count half in the mass. Slopes are
+// either minmod-limited (TVD) or, in the paper's limiter-free variant, Beam-Warming (one-sided
+// upwind differences). Bed friction is applied so that it opposes the motion and never reverses
+// it: material decelerates, stops and stays where |driving force| <= friction. See
+// docs/numerics.md for the derivation of each block.
+#include "granflow/core/channel.hpp"
+#include "granflow/core/material.hpp"
+#include "granflow/core/stepper.hpp"
+
+#include <Teuchos_ParameterList.hpp>
+
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace granflow::dam {
+
+enum class Scheme { Minmod, BeamWarming };
+enum class EarthPressure { SavageHutter, Active, Passive, Isotropic };
+
+/// Numerical parameters of the DAM ("DAM" sublist).
+struct DamConfig {
+  int cells = 400;
+  Scheme scheme = Scheme::Minmod;
+  double cfl = 0.45;
+  EarthPressure earth_pressure = EarthPressure::SavageHutter;
+  double k_smoothing = 0.1;  ///< [1/s] width of the tanh switch of K at u_x = 0
+  double dry_depth = 1e-6;   ///< [m] below this depth a cell is dry: u = 0
+
+  static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
+  static DamConfig from_parameters(const Teuchos::ParameterList& pl);
+};
+
+/// The physical coefficients the DAM needs, from Material and Channel.
+struct DamPhysics {
+  double g_sin = 0.0;      ///< g sin(zeta)
+  double g_cos = 9.81;     ///< g cos(zeta)
+  double tan_delta = 0.0;  ///< tan(delta)
+  double K_act = 1.0, K_pas = 1.0;
+  EarthPressure model = EarthPressure::SavageHutter;
+  double k_smoothing = 0.1;
+
+  static DamPhysics from(const core::Material& m, const core::Channel& c, const DamConfig& cfg);
+  /// Earth pressure coefficient for a velocity gradient u_x: active for u_x > 0, passive for
+  /// u_x < 0, switched smoothly, K = (K_a + K_p)/2 - (K_p - K_a)/2 tanh(u_x / k_smoothing).
+  double K(double u_x) const;
+};
+
+/// A DAM boundary: its type and, for Inflow, the state (h, u) it imposes at time t. The coupled
+/// model sets `inflow` to the depth-averaged state of a neighbouring 2D column.
+struct DamBoundary {
+  core::BoundaryType type = core::BoundaryType::Outflow;
+  std::function<std::array<double, 2>(double)> inflow;  ///< t -> {h, u}
+  static DamBoundary from(const core::BoundarySpec& spec);
+};
+
+class DamSolver final : public core::Stepper {
+ public:
+  DamSolver(double x_left, double x_right, const DamConfig& cfg, const DamPhysics& phys,
+            DamBoundary left, DamBoundary right);
+
+  /// Set the state on the primary grid from point values h(x), u(x), averaged over each cell
+  /// with 4-point Gauss quadrature; time and step counters restart at t0.
+  void set_state(const std::function<double(double)>& h, const std::function<double(double)>& u,
+                 double t0 = 0.0);
+
+  // Stepper
+  std::string model_name() const override { return "DAM"; }
+  double time() const override { return t_; }
+  long steps() const override { return steps_; }
+  double stable_dt() const override;
+  void step(double dt) override;
+  core::Health check() const override;
+  void accept() override;
+  core::Profile profile() const override;
+  core::MassBalance mass_balance() const override;
+  void write_fields(io::FieldWriter& w) const override;
+  void save(io::Checkpoint& c) const override;
+  void load(const io::Checkpoint& c) override;
+  void report(nlohmann::json& stats) const override;
+
+  // Inspection (tests, coupling).
+  double dx() const { return dx_; }
+  int cells() const { return n_; }
+  bool staggered() const { return staggered_; }
+  /// Cell centres, depth and discharge of the current grid (primary or staggered).
+  std::vector<double> centres() const;
+  const std::vector<double>& h() const { return h_; }
+  const std::vector<double>& hu() const { return hu_; }
+  /// Cell averages on the primary grid: the current state if it is primary, otherwise the exact
+  /// averages of the staggered piecewise-linear reconstruction over the primary cells
+  /// (conservative; no time advance).
+  void primary(std::vector<double>& h, std::vector<double>& hu) const;
+  /// Mass on the current grid (end cells of the staggered grid count half).
+  double mass() const;
+  long positivity_fixes() const { return positivity_fixes_; }
+
+ private:
+  static constexpr int G = 2;  // ghost cells per side
+  struct Work;                 // padded arrays of one step
+  void fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int n, bool on_b,
+                   double t) const;
+  bool wall_centred(int j, int n, bool on_b) const;
+  double velocity(double h, double hu) const {
+    return h > cfg_.dry_depth ? hu / h : 0.0;
+  }
+  void fix_positivity(std::vector<double>& h, std::vector<double>& hu, bool on_b);
+
+  DamConfig cfg_;
+  DamPhysics phys_;
+  DamBoundary left_, right_;
+  double x0_, x1_, dx_;
+  int n_;  // primary cells N
+
+  // current state (size N on the primary grid, N + 1 on the staggered grid)
+  double t_ = 0.0;
+  long steps_ = 0;
+  bool staggered_ = false;
+  std::vector<double> h_, hu_;
+  // tentative state of step()
+  double t_new_ = 0.0;
+  std::vector<double> h_new_, hu_new_;
+  double in_new_ = 0.0, out_new_ = 0.0;
+  long fixes_new_ = 0;
+
+  // ledger
+  double mass0_ = 0.0, mass_in_ = 0.0, mass_out_ = 0.0;
+  long positivity_fixes_ = 0;
+  double dt_min_ = 0.0, dt_max_ = 0.0;
+};
+
+}  // namespace granflow::dam

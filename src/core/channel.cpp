@@ -1,0 +1,166 @@
+#include "granflow/core/channel.hpp"
+
+#include "granflow/core/material.hpp"
+#include "granflow/params/parameters.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace granflow::core {
+
+std::string to_string(BoundaryType t) {
+  switch (t) {
+    case BoundaryType::Inflow: return "Inflow";
+    case BoundaryType::Outflow: return "Outflow";
+    case BoundaryType::Wall: return "Wall";
+    case BoundaryType::Periodic: return "Periodic";
+  }
+  return "?";
+}
+
+InflowSeries::InflowSeries(double h, double u) : t_{0.0}, h_{h}, u_{u} {}
+
+InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& ppath) {
+  std::ifstream in(file);
+  if (!in)
+    throw params::InputError("parameter '" + ppath + "' = " + file +
+                             ": cannot open the file (allowed: a readable CSV file with columns "
+                             "t,h,u)");
+  InflowSeries s;
+  s.t_.clear();
+  s.h_.clear();
+  s.u_.clear();
+  std::string line;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.empty() || line[0] == '#') continue;
+    std::replace(line.begin(), line.end(), ',', ' ');
+    std::istringstream ls(line);
+    double t, h, u;
+    if (!(ls >> t >> h >> u)) {
+      if (s.t_.empty() && lineno == 1) continue;  // header
+      throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
+                               std::to_string(lineno) + " is not 't,h,u' numbers");
+    }
+    if (!std::isfinite(t) || !std::isfinite(h) || !std::isfinite(u) || h < 0.0 ||
+        (!s.t_.empty() && t <= s.t_.back()))
+      throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
+                               std::to_string(lineno) +
+                               ": need finite values, h >= 0 and strictly increasing t");
+    s.t_.push_back(t);
+    s.h_.push_back(h);
+    s.u_.push_back(u);
+  }
+  if (s.t_.empty())
+    throw params::InputError("parameter '" + ppath + "' = " + file + ": no data rows");
+  return s;
+}
+
+double InflowSeries::interp(const std::vector<double>& v, double t) const {
+  if (t <= t_.front()) return v.front();
+  if (t >= t_.back()) return v.back();
+  const auto it = std::upper_bound(t_.begin(), t_.end(), t);
+  const std::size_t i = static_cast<std::size_t>(it - t_.begin());
+  const double w = (t - t_[i - 1]) / (t_[i] - t_[i - 1]);
+  return (1.0 - w) * v[i - 1] + w * v[i];
+}
+double InflowSeries::depth(double t) const { return interp(h_, t); }
+double InflowSeries::velocity(double t) const { return interp(u_, t); }
+
+namespace {
+const std::vector<std::string> kLeftTypes{"Inflow", "Outflow", "Wall", "Periodic"};
+const std::vector<std::string> kRightTypes{"Outflow", "Wall", "Periodic"};
+
+BoundaryType parse_type(const std::string& s) {
+  if (s == "Inflow") return BoundaryType::Inflow;
+  if (s == "Outflow") return BoundaryType::Outflow;
+  if (s == "Wall") return BoundaryType::Wall;
+  return BoundaryType::Periodic;
+}
+}  // namespace
+
+Teuchos::RCP<const Teuchos::ParameterList> Channel::getValidParameters() {
+  static Teuchos::RCP<const Teuchos::ParameterList> valid = [] {
+    using namespace params;
+    auto pl = Teuchos::rcp(new Teuchos::ParameterList("Channel"));
+    add_double(*pl, "Length", 1.0, "L [m]: channel length along the slope", 1e-6, 1e6);
+    add_double(*pl, "Slope angle", 50.0, "zeta [deg]: inclination of the channel bed", 0.0, 89.0);
+    auto& left = pl->sublist("Left boundary", false,
+                             "Upstream end x = 0 (the silo gate in the paper's setups)");
+    add_enum(left, "Type", "Inflow",
+             "Inflow: prescribed depth and mean velocity (constant or series file); Outflow: "
+             "open end (zero gradient); Wall: rigid closed end; Periodic: both ends periodic",
+             kLeftTypes);
+    add_double(left, "Inflow depth", 0.06, "h_in [m]: opening of the silo gate (Inflow only)",
+               0.0, 1e3);
+    add_double(left, "Inflow velocity", 0.37,
+               "u_in [m/s]: mean inflow velocity through the gate (Inflow only)", -1e3, 1e3);
+    add_string(left, "Inflow series file", "",
+               "CSV file with columns t,h,u (header allowed) giving a time-dependent inflow, "
+               "linear in time and held after its last row; relative to the scene file. "
+               "Replaces 'Inflow depth' and 'Inflow velocity' (Inflow only)");
+    auto& right = pl->sublist("Right boundary", false, "Downstream end x = L");
+    add_enum(right, "Type", "Outflow",
+             "Outflow: open end (zero gradient); Wall: rigid perpendicular wall; Periodic: "
+             "both ends periodic",
+             kRightTypes);
+    return pl;
+  }();
+  return valid;
+}
+
+Channel Channel::from_parameters(const Teuchos::ParameterList& pl,
+                                 const Teuchos::ParameterList& user, const std::string& scene_dir) {
+  Channel c;
+  c.length = pl.get<double>("Length");
+  c.slope_deg = pl.get<double>("Slope angle");
+  const auto& left = pl.sublist("Left boundary");
+  const auto& right = pl.sublist("Right boundary");
+  c.left.type = parse_type(left.get<std::string>("Type"));
+  c.right.type = parse_type(right.get<std::string>("Type"));
+
+  // Inconsistent combinations: inflow data given for an end that is not an inflow.
+  const Teuchos::ParameterList* uleft =
+      user.isSublist("Left boundary") ? &user.sublist("Left boundary") : nullptr;
+  if (uleft && c.left.type != BoundaryType::Inflow) {
+    for (const char* n : {"Inflow depth", "Inflow velocity", "Inflow series file"})
+      if (uleft->isParameter(n))
+        params::fail(left, n, Teuchos::toString(uleft->getEntry(n).getAny(false)),
+                     "inflow data on a boundary of Type '" + to_string(c.left.type) +
+                         "' (a closed or open end takes no inflow); allowed only with Type = "
+                         "Inflow");
+  }
+  if ((c.left.type == BoundaryType::Periodic) != (c.right.type == BoundaryType::Periodic))
+    params::fail(right, "Type", to_string(c.right.type),
+                 "periodic boundaries must be set at both ends (left is '" +
+                     to_string(c.left.type) + "'); allowed: Periodic on both or on neither");
+
+  if (c.left.type == BoundaryType::Inflow) {
+    const std::string file = left.get<std::string>("Inflow series file");
+    if (!file.empty()) {
+      if (uleft && (uleft->isParameter("Inflow depth") || uleft->isParameter("Inflow velocity")))
+        params::fail(left, "Inflow series file", file,
+                     "given together with 'Inflow depth'/'Inflow velocity'; allowed: either a "
+                     "series file or constant values");
+      const std::string full = (file.front() == '/' || scene_dir.empty()) ? file
+                                                                          : scene_dir + "/" + file;
+      c.left.inflow = InflowSeries::from_csv(full, params::path(left, "Inflow series file"));
+    } else {
+      const double h = left.get<double>("Inflow depth");
+      const double u = left.get<double>("Inflow velocity");
+      if (h > 0.0 && u <= 0.0)
+        params::fail(left, "Inflow velocity", Teuchos::toString(u),
+                     "an inflow with depth > 0 needs a velocity into the channel; allowed: > 0");
+      c.left.inflow = InflowSeries(h, u);
+    }
+  }
+  return c;
+}
+
+double Channel::g_sin(double g) const { return g * std::sin(deg2rad(slope_deg)); }
+double Channel::g_cos(double g) const { return g * std::cos(deg2rad(slope_deg)); }
+
+}  // namespace granflow::core

@@ -1,0 +1,137 @@
+// Scene files: assemble the valid parameter list of the scene's model from the components'
+// own declarations, validate the user's file against it, check cross-parameter consistency, and
+// build only the components the model uses.
+#include "granflow/scene/scene.hpp"
+
+#include "granflow/core/channel.hpp"
+#include "granflow/core/material.hpp"
+#include "granflow/core/simulation.hpp"
+#include "granflow/dam/dam_solver.hpp"
+#include "granflow/dam/initial_condition.hpp"
+#include "granflow/params/parameters.hpp"
+
+#include <filesystem>
+#include <sstream>
+
+namespace granflow::scene {
+
+using Teuchos::ParameterList;
+using Teuchos::RCP;
+
+const std::vector<std::string>& model_names() {
+  static const std::vector<std::string> names{"DAM"};
+  return names;
+}
+
+namespace {
+void add_scene_header(ParameterList& pl, const std::string& model) {
+  params::add_string(pl, "Name", "unnamed", "scene name, echoed in summary.json");
+  params::add_string(pl, "Description", "", "free text: what the scene reproduces");
+  params::add_enum(pl, "Model", model,
+                   "which model runs the scene: DAM (1D depth-averaged, paper section 3)",
+                   model_names());
+}
+void add(ParameterList& pl, const RCP<const ParameterList>& sub, const std::string& doc) {
+  pl.set(sub->name(), *sub, doc);
+}
+}  // namespace
+
+RCP<const ParameterList> valid_parameters(const std::string& model) {
+  auto pl = Teuchos::rcp(new ParameterList("granflow"));
+  add_scene_header(*pl, model);
+  add(*pl, core::Material::getValidParameters(), "granular material");
+  add(*pl, core::Channel::getValidParameters(), "inclined channel and its two ends");
+  add(*pl, core::RunControl::getValidTimeParameters(), "end time and time-step bounds");
+  add(*pl, core::RunControl::getValidOutputParameters(), "run directory and output schedule");
+  if (model == "DAM") {
+    add(*pl, dam::DamConfig::getValidParameters(), "depth-averaged model numerics");
+    add(*pl, dam::InitialCondition::getValidParameters(), "initial state of the channel");
+  }
+  return pl;
+}
+
+Scene load(const std::string& file) {
+  Scene s;
+  s.file = file;
+  s.dir = std::filesystem::path(file).parent_path().string();
+  auto user = params::read_xml(file);
+  user->setName("granflow");
+  // The model decides which sublists exist, so read and check it first.
+  std::string model = "DAM";
+  if (user->isParameter("Model")) {
+    if (!user->isType<std::string>("Model"))
+      throw params::InputError(file + ": parameter 'granflow->Model' must be a string; allowed: " +
+                               std::string("DAM"));
+    model = user->get<std::string>("Model");
+    const auto& names = model_names();
+    if (std::find(names.begin(), names.end(), model) == names.end()) {
+      std::string allowed;
+      for (const auto& n : names) allowed += (allowed.empty() ? "" : ", ") + n;
+      throw params::InputError(file + ": parameter 'granflow->Model' = " + model +
+                               ": unknown model; allowed: " + allowed);
+    }
+  }
+  s.user = Teuchos::rcp(new ParameterList(*user));
+  params::validate_and_set_defaults(*user, *valid_parameters(model), file);
+  s.params = user;
+  s.model = model;
+  s.name = user->get<std::string>("Name");
+  // Cross-parameter checks happen when the components are read; do it once now so that an
+  // inconsistent scene stops before anything runs.
+  try {
+    const auto m = core::Material::from_parameters(user->sublist("Material"));
+    const auto c = core::Channel::from_parameters(
+        user->sublist("Channel"),
+        s.user->isSublist("Channel") ? s.user->sublist("Channel") : ParameterList("Channel"),
+        s.dir);
+    (void)m;
+    (void)c;
+    core::RunControl::from_parameters(user->sublist("Time"), user->sublist("Output"), s.dir);
+  } catch (const params::InputError& e) {
+    throw params::InputError(file + ": " + e.what());
+  }
+  return s;
+}
+
+std::unique_ptr<core::Stepper> build_model(const Scene& s) {
+  const auto& p = *s.params;
+  try {
+    const auto material = core::Material::from_parameters(p.sublist("Material"));
+    const auto channel = core::Channel::from_parameters(
+        p.sublist("Channel"),
+        s.user->isSublist("Channel") ? s.user->sublist("Channel") : ParameterList("Channel"),
+        s.dir);
+    if (s.model == "DAM") {
+      const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));
+      const auto phys = dam::DamPhysics::from(material, channel, cfg);
+      auto dam = std::make_unique<dam::DamSolver>(0.0, channel.length, cfg, phys,
+                                                  dam::DamBoundary::from(channel.left),
+                                                  dam::DamBoundary::from(channel.right));
+      const ParameterList* uic = s.user->isSublist("Initial condition")
+                                     ? &s.user->sublist("Initial condition")
+                                     : nullptr;
+      dam::InitialCondition::apply(p.sublist("Initial condition"), uic, channel, *dam);
+      return dam;
+    }
+  } catch (const params::InputError& e) {
+    throw params::InputError(s.file + ": " + e.what());
+  }
+  throw params::InputError(s.file + ": model '" + s.model + "' is not available");
+}
+
+std::string parameter_reference() {
+  std::ostringstream os;
+  os << "# granflow scene parameters\n\n"
+     << "Generated by `granflow --parameters` from the components' valid parameter lists "
+        "(`getValidParameters()`); do not edit by hand. A test checks that this file matches "
+        "the code.\n\n"
+     << "A scene is a Teuchos ParameterList XML file whose top list holds the parameters below. "
+        "Which sublists are valid depends on `Model`.\n";
+  for (const auto& m : model_names()) {
+    os << "\n## Model `" << m << "`\n\n";
+    os << params::reference_markdown(*valid_parameters(m), 3);
+  }
+  return os.str();
+}
+
+}  // namespace granflow::scene
