@@ -152,7 +152,7 @@ Channel Channel::from_parameters(const Teuchos::ParameterList& pl,
       const double h = left.get<double>("Inflow depth");
       const double u = left.get<double>("Inflow velocity");
       if (h > 0.0 && u <= 0.0)
-        params::fail(left, "Inflow velocity", Teuchos::toString(u),
+        params::fail(left, "Inflow velocity", params::str(u),
                      "an inflow with depth > 0 needs a velocity into the channel; allowed: > 0");
       c.left.inflow = InflowSeries(h, u);
     }

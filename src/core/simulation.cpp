@@ -53,7 +53,8 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidOutputParameters(
     add_bool(*pl, "Progress", d.progress, "show a live progress line on stderr");
     add_string(*pl, "Restart from", "",
                "checkpoint.h5 of an earlier run of the same scene to resume from (empty: start "
-               "from the initial condition); relative to the scene file");
+               "from the initial condition); relative to the current working directory, like "
+               "'Directory'");
     return pl;
   }();
   return valid;
@@ -61,7 +62,7 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidOutputParameters(
 
 RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
                                        const Teuchos::ParameterList& out,
-                                       const std::string& scene_dir) {
+                                       const std::string& /*scene_dir*/) {
   RunControl r;
   r.end_time = time.get<double>("End time");
   r.max_dt = time.get<double>("Max time step");
@@ -73,14 +74,12 @@ RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
   r.checkpoint = out.get<bool>("Checkpoint");
   r.progress = out.get<bool>("Progress");
   r.restart_from = out.get<std::string>("Restart from");
-  if (!r.restart_from.empty() && r.restart_from.front() != '/' && !scene_dir.empty())
-    r.restart_from = scene_dir + "/" + r.restart_from;
   if (!r.restart_from.empty() && !std::filesystem::exists(r.restart_from))
     params::fail(out, "Restart from", r.restart_from,
                  "no such file; allowed: the checkpoint.h5 of an earlier run, or empty");
   if (r.min_dt >= r.max_dt)
-    params::fail(time, "Min time step", Teuchos::toString(r.min_dt),
-                 "must be smaller than 'Max time step' = " + Teuchos::toString(r.max_dt));
+    params::fail(time, "Min time step", params::str(r.min_dt),
+                 "must be smaller than 'Max time step' = " + params::str(r.max_dt));
   return r;
 }
 
@@ -244,9 +243,12 @@ int Simulation::run() {
                 << "; the last good output and checkpoint are kept in " << rc_.directory << "\n";
       return kDiverged;
     }
-    double dt = std::min({stable, rc_.max_dt, rc_.end_time - t});
-    if (next_output - t < dt) dt = next_output - t;
-    else if (next_output - t < 1.5 * dt) dt = 0.5 * (next_output - t);  // avoid a sliver step
+    // Land exactly on the next output or end time; split the last two steps before it evenly
+    // rather than leaving a sliver step.
+    const double to_target = std::min(next_output, rc_.end_time) - t;
+    double dt = std::min({stable, rc_.max_dt});
+    if (to_target <= dt) dt = to_target;
+    else if (to_target < 1.5 * dt) dt = 0.5 * to_target;
     const auto t1 = Clock::now();
     model_->step(dt);
     const auto t2 = Clock::now();

@@ -67,8 +67,8 @@ void InitialCondition::apply(const Teuchos::ParameterList& pl, const Teuchos::Pa
   auto in_channel = [&](const char* name) {
     const double x = pl.get<double>(name);
     if (x < 0.0 || x > ch.length)
-      params::fail(pl, name, Teuchos::toString(x),
-                   "outside the channel; allowed: [0, " + Teuchos::toString(ch.length) + "]");
+      params::fail(pl, name, params::str(x),
+                   "outside the channel; allowed: [0, " + params::str(ch.length) + "]");
     return x;
   };
   const double L = ch.length;
@@ -84,8 +84,8 @@ void InitialCondition::apply(const Teuchos::ParameterList& pl, const Teuchos::Pa
   } else if (type == "Block") {
     const double a = in_channel("Start"), b = in_channel("End");
     if (b <= a)
-      params::fail(pl, "End", Teuchos::toString(b),
-                   "must be greater than 'Start' = " + Teuchos::toString(a));
+      params::fail(pl, "End", params::str(b),
+                   "must be greater than 'Start' = " + params::str(a));
     const double h0 = pl.get<double>("Depth"), u0 = pl.get<double>("Velocity");
     dam.set_state([=](double x) { return (x >= a && x <= b) ? h0 : 0.0; },
                   [=](double x) { return (x >= a && x <= b) ? u0 : 0.0; });

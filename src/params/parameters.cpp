@@ -44,6 +44,8 @@ RCP<ParameterList> read_xml(const std::string& file) {
   if (!probe) throw InputError("cannot open scene file '" + file + "' (no such file or not readable)");
   try {
     auto pl = Teuchos::getParametersFromXmlFile(file);
+    pl->setName("granflow");
+    name_sublists(*pl);
     return pl;
   } catch (const std::exception& e) {
     throw InputError("scene file '" + file + "' is not a valid ParameterList XML file:\n" +
@@ -52,21 +54,46 @@ RCP<ParameterList> read_xml(const std::string& file) {
 }
 
 namespace {
-// Teuchos messages are long and start with the source location of the throw; keep the part
-// that names the parameter and the allowed values.
+// Teuchos messages start with the source location and the failed internal test of the throw;
+// keep only the lines that name the parameter, its list, and the allowed values.
 std::string trim_teuchos(const std::string& what) {
-  std::string s = what;
-  const auto pos = s.find("Error, ");
-  if (pos != std::string::npos) s = s.substr(pos);
-  const auto pos2 = s.find("Error!");
-  if (pos2 != std::string::npos && pos == std::string::npos) s = s.substr(pos2);
-  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
-  return s;
+  std::istringstream in(what);
+  std::string line, out;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '/' || line.rfind("./", 0) == 0 ||
+        line.rfind("Throw number", 0) == 0 || line.rfind("Throw test", 0) == 0)
+      continue;
+    // Teuchos's own typo ("sublist is has an error")
+    const auto p = line.find(" is has an error");
+    if (p != std::string::npos) line.replace(p, 16, " has an error");
+    const auto q = line.find("validator.Parameter:");
+    if (q != std::string::npos) line.replace(q, 20, "validator.\nParameter:");
+    out += "  " + line + "\n";
+  }
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return out;
 }
 }  // namespace
 
+void name_sublists(ParameterList& pl) {
+  for (auto it = pl.begin(); it != pl.end(); ++it) {
+    if (!pl.entry(it).isList()) continue;
+    auto& sub = pl.sublist(pl.name(it));
+    sub.setName(pl.name() + "->" + pl.name(it));
+    name_sublists(sub);
+  }
+}
+
+std::string str(double v) {
+  std::ostringstream os;
+  os.precision(10);
+  os << v;
+  return os.str();
+}
+
 void validate_and_set_defaults(ParameterList& user, const ParameterList& valid,
                                const std::string& source) {
+  name_sublists(user);
   try {
     user.validateParametersAndSetDefaults(valid);
   } catch (const Teuchos::Exceptions::InvalidParameterName& e) {

@@ -47,6 +47,13 @@ RCP<ParameterList> read_xml(const std::string& file);
 void validate_and_set_defaults(ParameterList& user, const ParameterList& valid,
                                const std::string& source);
 
+/// Give every sublist its full path as name ("granflow->Channel->Left boundary"), so that
+/// Teuchos's messages and ours say where a parameter lives.
+void name_sublists(ParameterList& pl);
+
+/// A number as users wrote it (up to 10 significant digits), for messages.
+std::string str(double v);
+
 /// "Sublist->Parameter" path used in messages.
 std::string path(const ParameterList& pl, const std::string& name);
 

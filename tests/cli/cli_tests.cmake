@@ -1,0 +1,50 @@
+# Each bad-input scene must stop before the run with exit code 2 and a message that names the
+# parameter, the value and what is allowed. run_cli.cmake runs granflow and checks both.
+set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
+function(granflow_cli_test name expected_code regex)
+  add_test(NAME cli.${name}
+           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> -DARGS=${ARGN}
+                   -DEXPECTED_CODE=${expected_code} -DREGEX=${regex}
+                   -P ${_cli}/run_cli.cmake
+           WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+  set_tests_properties(cli.${name} PROPERTIES LABELS "cli")
+endfunction()
+
+# usage and reference
+granflow_cli_test(help 0 "usage: granflow" --help)
+granflow_cli_test(no_arguments 1 "usage: granflow")
+granflow_cli_test(unknown_option 1 "unknown option '--frobnicate'" --frobnicate)
+# bad input (scene files in tests/cli/)
+granflow_cli_test(missing_file 2 "cannot open scene file '.*does_not_exist.xml'"
+                  ${_cli}/does_not_exist.xml)
+granflow_cli_test(malformed_xml 2 "not a valid ParameterList XML" ${_cli}/bad_malformed.xml)
+granflow_cli_test(misspelt_name 2 "Bed fricton angle.*(valid|Valid)" ${_cli}/bad_misspelt.xml)
+granflow_cli_test(wrong_type 2 "wrong type.*Cells" ${_cli}/bad_wrong_type.xml)
+granflow_cli_test(out_of_range 2 "CFL.*Max: 0\\.5.*Value entered: 0\\.8" ${_cli}/bad_out_of_range.xml)
+granflow_cli_test(bad_enum 2 "Scheme.*Minmod, Beam-Warming.*Value entered: Superbee" ${_cli}/bad_enum.xml)
+granflow_cli_test(delta_above_phi 2 "Bed friction angle' = 35.*Internal friction angle' = 30"
+                  ${_cli}/bad_delta_above_phi.xml)
+granflow_cli_test(inflow_on_wall 2 "Left boundary->Inflow depth.*Wall.*allowed only with Type = Inflow"
+                  ${_cli}/bad_inflow_on_wall.xml)
+granflow_cli_test(one_sided_periodic 2 "Right boundary->Type' = Outflow.*periodic"
+                  ${_cli}/bad_one_sided_periodic.xml)
+granflow_cli_test(missing_series_file 2 "Inflow series file' = .*no_such_series.csv.*cannot open"
+                  ${_cli}/bad_missing_series.xml)
+granflow_cli_test(unknown_model 2 "Model' = Navier.*allowed" ${_cli}/bad_unknown_model.xml)
+granflow_cli_test(ic_parameter_of_other_type 2 "Initial condition->Left depth.*not used by initial condition Type 'Uniform'"
+                  ${_cli}/bad_ic_mismatch.xml)
+granflow_cli_test(dam_position_outside 2 "Position' = 2.*outside the channel.*\\[0, 1\\]"
+                  ${_cli}/bad_position.xml)
+
+# a valid run completes and writes the output contract
+granflow_cli_test(good_run 0 "completed at t = 0.2 s" ${_cli}/good_run.xml)
+# a run whose stable step collapses stops with a diagnosis and exit code 3
+granflow_cli_test(diverged_min_dt 3 "stable time step .* fell below 'Min time step'.*last good output and checkpoint are kept"
+                  ${_cli}/diverge_min_dt.xml)
+add_test(NAME cli.restart_reproduces_straight_run
+         COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> -DSRC=${_cli} -P ${_cli}/restart.cmake
+         WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+add_test(NAME cli.parameters_doc_up_to_date
+         COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> -DDOC=${PROJECT_SOURCE_DIR}/docs/parameters.md
+                 -P ${_cli}/params_doc.cmake)
+set_tests_properties(cli.restart_reproduces_straight_run cli.parameters_doc_up_to_date PROPERTIES LABELS "cli")
