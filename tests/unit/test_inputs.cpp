@@ -1,0 +1,90 @@
+// Unit checks of the input layer: material coefficients, inflow series, scene validation.
+#include "granflow/core/channel.hpp"
+#include "granflow/core/material.hpp"
+#include "granflow/params/parameters.hpp"
+#include "granflow/scene/scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+using namespace granflow;
+
+TEST(Material, EarthPressureCoefficientsOfThePapersMaterial) {
+  // phi = 33, delta = 22 deg: K = 2 sec^2(phi) (1 -/+ sqrt(1 - cos^2 phi sec^2 delta)) - 1,
+  // evaluated independently here: cos^2(33) = 0.703368, sec^2(22) = 1.163237,
+  // sqrt(1 - 0.818185) = 0.426398, sec^2(33) = 1.421733.
+  core::Material m;
+  m.internal_friction_deg = 33;
+  m.bed_friction_deg = 22;
+  // 1e-5: the hand-evaluated constants above carry 6-7 significant digits.
+  EXPECT_NEAR(m.K_active(), 2 * 1.421733 * (1 - 0.426398) - 1, 1e-5);
+  EXPECT_NEAR(m.K_passive(), 2 * 1.421733 * (1 + 0.426398) - 1, 1e-5);
+}
+
+TEST(Material, DeltaEqualPhiGivesEqualActiveAndPassive) {
+  // At delta = phi the square root vanishes: K_act = K_pas = 2 sec^2(phi) - 1 (round-off only).
+  core::Material m;
+  m.internal_friction_deg = 30;
+  m.bed_friction_deg = 30;
+  EXPECT_NEAR(m.K_active(), m.K_passive(), 1e-12);
+  EXPECT_NEAR(m.K_active(), 2.0 / std::pow(std::cos(M_PI / 6), 2) - 1.0, 1e-12);
+}
+
+TEST(Material, DeltaAbovePhiIsRejectedWithParameterNameAndValue) {
+  Teuchos::ParameterList pl(*core::Material::getValidParameters());
+  pl.setName("granflow->Material");
+  pl.set("Internal friction angle", 30.0);
+  pl.set("Bed friction angle", 35.0);
+  try {
+    core::Material::from_parameters(pl);
+    FAIL() << "delta > phi accepted";
+  } catch (const params::InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("Bed friction angle' = 35"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("delta <= phi"), std::string::npos) << msg;
+  }
+}
+
+namespace {
+std::string write_tmp(const std::string& name, const std::string& text) {
+  const std::string f = ::testing::TempDir() + name;
+  std::ofstream(f) << text;
+  return f;
+}
+}  // namespace
+
+TEST(InflowSeries, InterpolatesLinearlyAndHoldsTheEnds) {
+  const auto f = write_tmp("series_ok.csv", "t,h,u\n0,0.0,0.5\n1,0.1,1.5\n3,0.1,0.5\n");
+  const auto s = core::InflowSeries::from_csv(f, "p");
+  // Exact arithmetic on these values; 1e-14 allows for round-off of the interpolation weight.
+  EXPECT_NEAR(s.depth(0.5), 0.05, 1e-14);
+  EXPECT_NEAR(s.velocity(2.0), 1.0, 1e-14);
+  EXPECT_NEAR(s.depth(-1.0), 0.0, 1e-14);  // before the first row: first value
+  EXPECT_NEAR(s.velocity(10.0), 0.5, 1e-14);  // after the last row: last value
+}
+
+TEST(InflowSeries, RejectsNonIncreasingTimesAndNegativeDepthNamingTheLine) {
+  const auto f1 = write_tmp("series_bad_t.csv", "0,0.1,1\n0,0.1,1\n");
+  EXPECT_THROW(core::InflowSeries::from_csv(f1, "p"), params::InputError);
+  const auto f2 = write_tmp("series_bad_h.csv", "0,0.1,1\n1,-0.1,1\n");
+  try {
+    core::InflowSeries::from_csv(f2, "granflow->Channel->Left boundary->Inflow series file");
+    FAIL() << "negative depth accepted";
+  } catch (const params::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("line 2"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Scene, EveryShippedSceneValidatesAndBuilds) {
+  for (const char* s : {"setup1_dam.xml", "setup2_dam.xml", "dambreak_incline.xml"}) {
+    const auto scene = scene::load(std::string(GRANFLOW_INPUTS) + "/" + s);
+    auto model = scene::build_model(scene);
+    ASSERT_TRUE(model);
+    EXPECT_EQ(model->model_name(), "DAM") << s;
+    EXPECT_GT(model->stable_dt(), 0.0) << s;
+  }
+}
