@@ -1,0 +1,56 @@
+#pragma once
+// Reading and comparing runs through their profiles.csv (the output contract's depth-averaged
+// profiles, identical in form for 1D, 2D and coupled runs):
+//
+//  * the paper's relative error r = |v_test - v_ref| / |v_ref| of h and u_mean at given times,
+//    as its maximum and as the L2 ratio sqrt(sum (v_test - v_ref)^2 / sum v_ref^2) over the
+//    flowing part of the channel (where the reference depth exceeds a threshold);
+//  * the velocity averaged over [0, l], u(l) = 1/l int_0^l u_mean dx, against time (Fig. 14);
+//  * the shallowness parameter eps along the channel, from which an a priori 2D/1D layout is
+//    proposed (paper section 4.1: 2D wherever eps >= threshold, plus a margin).
+#include <map>
+#include <string>
+#include <vector>
+
+namespace granflow::analysis {
+
+struct ProfileAt {
+  std::vector<double> x, h, u, eps;
+  std::vector<std::string> model;
+};
+
+/// All output times of one run: t -> profile. Throws std::runtime_error naming file and line.
+std::map<double, ProfileAt> read_profiles(const std::string& csv_file);
+
+struct ErrorNorms {
+  double max_rel = 0.0;  ///< max over flowing points of |v_t - v_r| / |v_r|
+  double l2_rel = 0.0;   ///< sqrt(sum (v_t - v_r)^2 / sum v_r^2) over flowing points
+  int points = 0;        ///< flowing points compared
+};
+
+struct ProfileErrors {
+  ErrorNorms h, u;
+};
+
+/// Errors of `test` against `ref` at one time. `test` is linearly interpolated onto the x of
+/// `ref`; points count as flowing where h_ref > h_min and |u_ref| > u_min (so the relative
+/// error of u is defined).
+ProfileErrors compare(const ProfileAt& ref, const ProfileAt& test, double h_min, double u_min);
+
+/// u(l) = 1/l int_0^l u_mean dx by the midpoint rule over the cells with x < l (dry cells
+/// contribute u_mean = 0).
+double average_velocity(const ProfileAt& p, double l);
+
+struct Subdomain {
+  std::string model;  ///< "2D" or "1D"
+  double x0, x1;
+};
+
+/// A priori layout (paper section 4.1): 2D wherever max over time of eps >= threshold (wet
+/// cells only), each such region widened by `margin` on both sides, merged, clipped to
+/// [0, length]; 1D elsewhere. Subdomains shorter than `min_length` are absorbed into 2D.
+std::vector<Subdomain> propose_layout(const std::map<double, ProfileAt>& run, double length,
+                                      double threshold, double margin, double min_length,
+                                      double h_min);
+
+}  // namespace granflow::analysis

@@ -1,0 +1,52 @@
+#!/usr/bin/python3
+"""Plot a granflow-study comparison: profiles of both runs at the compared times, the relative
+errors of h and u_mean against time, and the error of the velocity averaged over [0, l].
+usage: plot_compare.py OUT_DIR REF_RUN TEST_RUN   (writes OUT_DIR/compare.png)
+"""
+import csv
+import os
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+out, ref, test = sys.argv[1:4]
+
+
+def rows(f):
+    with open(f) as fh:
+        return list(csv.DictReader(fh))
+
+
+err = rows(os.path.join(out, "compare_errors.csv"))
+avg = rows(os.path.join(out, "average_velocity.csv"))
+times = sorted({float(r["t"]) for r in err})
+fig, ax = plt.subplots(2, 2, figsize=(11, 7))
+for k, (run, style) in enumerate(((ref, "-"), (test, "--"))):
+    prof = rows(os.path.join(run, "profiles.csv"))
+    for j, t in enumerate(times[-3:]):
+        p = [r for r in prof if abs(float(r["t"]) - t) < 1e-9]
+        x = [float(r["x"]) for r in p]
+        ax[0, 0].plot(x, [float(r["h"]) for r in p], style, color=f"C{j}",
+                      label=f"{os.path.basename(run.rstrip('/'))} t={t:g}")
+        ax[0, 1].plot(x, [float(r["u_mean"]) for r in p], style, color=f"C{j}")
+ax[0, 0].set(xlabel="x [m]", ylabel="h [m]")
+ax[0, 1].set(xlabel="x [m]", ylabel="u_mean [m/s]")
+ax[0, 0].legend(fontsize=7)
+for q, c in (("h", "C0"), ("u_mean", "C1")):
+    e = [r for r in err if r["quantity"] == q]
+    ax[1, 0].semilogy([float(r["t"]) for r in e], [max(float(r["max_rel"]), 1e-12) for r in e],
+                      "o-", color=c, label=f"{q} max")
+    ax[1, 0].semilogy([float(r["t"]) for r in e], [max(float(r["l2_rel"]), 1e-12) for r in e],
+                      "s--", color=c, label=f"{q} L2")
+ax[1, 0].set(xlabel="t [s]", ylabel="relative error")
+ax[1, 0].legend(fontsize=7)
+ax[1, 1].plot([float(r["t"]) for r in avg], [100 * float(r["rel_error"]) for r in avg], "o-")
+ax[1, 1].set(xlabel="t [s]", ylabel="rel. error of averaged velocity [%]")
+for a in ax.flat:
+    a.grid(alpha=0.3)
+fig.tight_layout()
+fig.savefig(os.path.join(out, "compare.png"), dpi=110)
+print(os.path.join(out, "compare.png"))

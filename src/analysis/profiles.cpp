@@ -1,0 +1,128 @@
+#include "granflow/analysis/profiles.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace granflow::analysis {
+
+std::map<double, ProfileAt> read_profiles(const std::string& file) {
+  std::ifstream in(file);
+  if (!in) throw std::runtime_error("cannot open '" + file + "'");
+  std::string line;
+  std::getline(in, line);
+  if (line.rfind("t,x,h,u_mean,eps,model", 0) != 0)
+    throw std::runtime_error("'" + file + "' line 1: expected the header t,x,h,u_mean,eps,model");
+  std::map<double, ProfileAt> out;
+  int lineno = 1;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (line.empty()) continue;
+    std::istringstream ls(line);
+    std::string f[6];
+    for (auto& s : f) std::getline(ls, s, ',');
+    try {
+      auto& p = out[std::stod(f[0])];
+      p.x.push_back(std::stod(f[1]));
+      p.h.push_back(std::stod(f[2]));
+      p.u.push_back(std::stod(f[3]));
+      p.eps.push_back(std::stod(f[4]));
+      p.model.push_back(f[5]);
+    } catch (const std::exception&) {
+      throw std::runtime_error("'" + file + "' line " + std::to_string(lineno) +
+                               ": not t,x,h,u_mean,eps,model");
+    }
+  }
+  return out;
+}
+
+namespace {
+double interp(const std::vector<double>& x, const std::vector<double>& v, double xi) {
+  if (x.empty()) return 0.0;
+  if (xi <= x.front()) return v.front();
+  if (xi >= x.back()) return v.back();
+  const auto it = std::upper_bound(x.begin(), x.end(), xi);
+  const auto i = static_cast<std::size_t>(it - x.begin());
+  const double w = (xi - x[i - 1]) / (x[i] - x[i - 1]);
+  return (1 - w) * v[i - 1] + w * v[i];
+}
+}  // namespace
+
+ProfileErrors compare(const ProfileAt& ref, const ProfileAt& test, double h_min, double u_min) {
+  ProfileErrors e;
+  double sh = 0, sh_ref = 0, su = 0, su_ref = 0;
+  for (std::size_t i = 0; i < ref.x.size(); ++i) {
+    if (ref.h[i] <= h_min || std::abs(ref.u[i]) <= u_min) continue;
+    const double ht = interp(test.x, test.h, ref.x[i]);
+    const double ut = interp(test.x, test.u, ref.x[i]);
+    e.h.max_rel = std::max(e.h.max_rel, std::abs(ht - ref.h[i]) / ref.h[i]);
+    e.u.max_rel = std::max(e.u.max_rel, std::abs(ut - ref.u[i]) / std::abs(ref.u[i]));
+    sh += (ht - ref.h[i]) * (ht - ref.h[i]);
+    sh_ref += ref.h[i] * ref.h[i];
+    su += (ut - ref.u[i]) * (ut - ref.u[i]);
+    su_ref += ref.u[i] * ref.u[i];
+    ++e.h.points;
+  }
+  e.u.points = e.h.points;
+  e.h.l2_rel = sh_ref > 0 ? std::sqrt(sh / sh_ref) : 0.0;
+  e.u.l2_rel = su_ref > 0 ? std::sqrt(su / su_ref) : 0.0;
+  return e;
+}
+
+double average_velocity(const ProfileAt& p, double l) {
+  // cell widths from the spacing of the profile points (uniform per model region)
+  double s = 0.0, covered = 0.0;
+  for (std::size_t i = 0; i < p.x.size(); ++i) {
+    const double left = i == 0 ? p.x[0] - 0.5 * (p.x[1] - p.x[0]) : 0.5 * (p.x[i - 1] + p.x[i]);
+    const double right = i + 1 == p.x.size() ? p.x[i] + 0.5 * (p.x[i] - p.x[i - 1])
+                                             : 0.5 * (p.x[i] + p.x[i + 1]);
+    const double a = std::max(left, 0.0), b = std::min(right, l);
+    if (b <= a) continue;
+    s += p.u[i] * (b - a);
+    covered += b - a;
+  }
+  return covered > 0 ? s / l : 0.0;
+}
+
+std::vector<Subdomain> propose_layout(const std::map<double, ProfileAt>& run, double length,
+                                      double threshold, double margin, double min_length,
+                                      double h_min) {
+  if (run.empty()) return {{"1D", 0.0, length}};
+  const auto& x = run.begin()->second.x;
+  std::vector<char> deep(x.size(), 0);
+  for (const auto& [t, p] : run)
+    for (std::size_t i = 0; i < p.x.size() && i < x.size(); ++i)
+      if (p.h[i] > h_min && p.eps[i] >= threshold) deep[i] = 1;
+  // 2D intervals: cells flagged at any time, widened by the margin
+  std::vector<std::pair<double, double>> iv;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (!deep[i]) continue;
+    const double half = 0.5 * (x.size() > 1 ? (i + 1 < x.size() ? x[i + 1] - x[i] : x[i] - x[i - 1]) : length);
+    const double a = std::max(0.0, x[i] - half - margin), b = std::min(length, x[i] + half + margin);
+    if (!iv.empty() && a <= iv.back().second) iv.back().second = std::max(iv.back().second, b);
+    else iv.emplace_back(a, b);
+  }
+  // close 1D gaps shorter than min_length (between 2D regions and at the channel ends)
+  std::vector<std::pair<double, double>> merged;
+  for (const auto& v : iv) {
+    if (!merged.empty() && v.first - merged.back().second < min_length)
+      merged.back().second = v.second;
+    else
+      merged.push_back(v);
+  }
+  if (!merged.empty() && merged.front().first < min_length) merged.front().first = 0.0;
+  if (!merged.empty() && length - merged.back().second < min_length) merged.back().second = length;
+  std::vector<Subdomain> out;
+  double pos = 0.0;
+  for (const auto& [a, b] : merged) {
+    if (a > pos) out.push_back({"1D", pos, a});
+    out.push_back({"2D", a, b});
+    pos = b;
+  }
+  if (pos < length) out.push_back({"1D", pos, length});
+  return out;
+}
+
+}  // namespace granflow::analysis
