@@ -219,6 +219,27 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
 // ---------------------------------------------------------------------------------------------
 // Time step
 // ---------------------------------------------------------------------------------------------
+namespace {
+inline double minmod(double a, double b) {
+  if (a * b <= 0.0) return 0.0;
+  return std::abs(a) < std::abs(b) ? a : b;
+}
+
+// Velocity gradient u_x at a cell for the active/passive switch of K, from the wet cells among
+// the cell (u0) and its neighbours (um at distance gm cells upstream, up at gp downstream).
+// Fix (verification, tests/dam): a dry cell carries u = 0 by convention, so the plain central
+// difference saw u_x < 0 at every spreading wet/dry front and chose the passive K there
+// (K_pas/K_act ~ 3 for phi = 35, delta = 30 deg): the extra "pressure" at the front shot a
+// sliding block's tip to 6.5 m/s where the Ritter bound u0 + 2 c0 is 2.9 m/s. Dry neighbours
+// are now skipped (one-sided difference; u_x = 0 if no wet neighbour).
+inline double wet_ux(double um, bool wet_m, int gm, double u0, double up, bool wet_p, int gp,
+                     double dx) {
+  const double a = wet_m ? um : u0, b = wet_p ? up : u0;
+  const int span = (wet_m ? gm : 0) + (wet_p ? gp : 0);
+  return span > 0 ? (b - a) / (span * dx) : 0.0;
+}
+}  // namespace
+
 double DamSolver::stable_dt() const {
   // dt = CFL dx / max(|u| + sqrt(beta h)), with beta from the cell's own K (see K()).
   const int n = static_cast<int>(h_.size());
@@ -230,20 +251,14 @@ double DamSolver::stable_dt() const {
   for (int i = 1; i < n + 2 * G - 1; ++i) {
     const auto k = static_cast<std::size_t>(i);
     const double u = velocity(h[k], hu[k]);
-    const double ux = (velocity(h[k + 1], hu[k + 1]) - velocity(h[k - 1], hu[k - 1])) / (2 * dx_);
+    const double ux = wet_ux(velocity(h[k - 1], hu[k - 1]), h[k - 1] > cfg_.dry_depth, 1, u,
+                             velocity(h[k + 1], hu[k + 1]), h[k + 1] > cfg_.dry_depth, 1, dx_);
     const double beta = phys_.g_cos * phys_.K(ux);
     amax = std::max(amax, std::abs(u) + std::sqrt(std::max(0.0, beta * h[k])));
   }
   if (amax <= 0.0) return std::numeric_limits<double>::infinity();
   return cfg_.cfl * dx_ / amax;
 }
-
-namespace {
-inline double minmod(double a, double b) {
-  if (a * b <= 0.0) return 0.0;
-  return std::abs(a) < std::abs(b) ? a : b;
-}
-}  // namespace
 
 void DamSolver::step(double dt) {
   const bool on_b = staggered_;
@@ -263,7 +278,8 @@ void DamSolver::step(double dt) {
   for (int j = -2; j < n + 2; ++j) u[at(j)] = velocity(h[at(j)], hu[at(j)]);
   for (int j = -2; j < n + 2; ++j) {
     const int jm = std::max(j - 1, -2), jp = std::min(j + 1, n + 1);
-    const double ux = (u[at(jp)] - u[at(jm)]) / ((jp - jm) * dx_);
+    const double ux = wet_ux(u[at(jm)], h[at(jm)] > cfg_.dry_depth, j - jm, u[at(j)], u[at(jp)],
+                             h[at(jp)] > cfg_.dry_depth, jp - j, dx_);
     beta[at(j)] = phys_.g_cos * phys_.K(ux);
   }
   auto flux = [&](int j, double hv, double huv, double& f0, double& f1) {
@@ -452,9 +468,9 @@ core::Profile DamSolver::profile() const {
     // shallowness eps = 1/Fr^2 = beta h / u^2 (paper section 4.1), with beta from the local K;
     // dry cells report 0, resting material is capped at 1e6.
     const int jm = std::max(j - 1, 0), jp = std::min(j + 1, n_ - 1);
-    const double ux = (velocity(h[static_cast<std::size_t>(jp)], hu[static_cast<std::size_t>(jp)]) -
-                       velocity(h[static_cast<std::size_t>(jm)], hu[static_cast<std::size_t>(jm)])) /
-                      ((jp - jm) * dx_);
+    const auto km = static_cast<std::size_t>(jm), kp = static_cast<std::size_t>(jp);
+    const double ux = wet_ux(velocity(h[km], hu[km]), h[km] > cfg_.dry_depth, j - jm, u,
+                             velocity(h[kp], hu[kp]), h[kp] > cfg_.dry_depth, jp - j, dx_);
     double eps = 0.0;
     if (h[k] > cfg_.dry_depth) {
       const double beta = phys_.g_cos * phys_.K(ux);
