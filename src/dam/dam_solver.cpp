@@ -102,7 +102,9 @@ DamBoundary DamBoundary::from(const core::BoundarySpec& spec) {
   b.type = spec.type;
   if (spec.type == BoundaryType::Inflow) {
     const core::InflowSeries s = spec.inflow;
-    b.inflow = [s](double t) { return std::array<double, 2>{s.depth(t), s.velocity(t)}; };
+    b.inflow = [s](double t, double) {
+      return std::array<double, 2>{s.depth(t), s.velocity(t)};
+    };
   }
   return b;
 }
@@ -182,11 +184,12 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
   };
   const int off = on_b ? 1 : 0;  // mirror about a centre skips the centre cell
   switch (left_.type) {
-    case BoundaryType::Inflow: {
-      const auto s = left_.inflow(t);
-      for (int g = -2; g <= -1; ++g) set(g, s[0], s[0] * s[1]);
+    case BoundaryType::Inflow:
+      for (int g = -2; g <= -1; ++g) {
+        const auto s = left_.inflow(t, x0_ + (g + (on_b ? 0.0 : 0.5)) * dx_);
+        set(g, s[0], s[0] * s[1]);
+      }
       break;
-    }
     case BoundaryType::Outflow:
       for (int g = -2; g <= -1; ++g) set(g, h[at(0)], hu[at(0)]);
       break;
@@ -199,11 +202,12 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
       break;
   }
   switch (right_.type) {
-    case BoundaryType::Inflow: {
-      const auto s = right_.inflow(t);
-      for (int g = 0; g <= 1; ++g) set(n + g, s[0], s[0] * s[1]);
+    case BoundaryType::Inflow:
+      for (int g = 0; g <= 1; ++g) {
+        const auto s = right_.inflow(t, x0_ + (n + g + (on_b ? 0.0 : 0.5)) * dx_);
+        set(n + g, s[0], s[0] * s[1]);
+      }
       break;
-    }
     case BoundaryType::Outflow:
       for (int g = 0; g <= 1; ++g) set(n + g, h[at(n - 1)], hu[at(n - 1)]);
       break;
@@ -425,6 +429,7 @@ void DamSolver::accept() {
   ++steps_;
   mass_in_ += in_new_;
   mass_out_ += out_new_;
+  last_transfer_ = {in_new_, out_new_};
   positivity_fixes_ += fixes_new_;
 }
 
@@ -456,6 +461,26 @@ void DamSolver::primary(std::vector<double>& h, std::vector<double>& hu) const {
     hu[static_cast<std::size_t>(j)] =
         0.5 * (phu[at(j)] + phu[at(j + 1)]) + 0.125 * (sl(phu, j) - sl(phu, j + 1));
   }
+}
+
+std::array<double, 2> DamSolver::sample(double x) const {
+  const int n = static_cast<int>(h_.size());
+  std::vector<double> ph(static_cast<std::size_t>(n + 2 * G)), phu(ph.size());
+  std::copy(h_.begin(), h_.end(), ph.begin() + G);
+  std::copy(hu_.begin(), hu_.end(), phu.begin() + G);
+  fill_ghosts(ph, phu, n, staggered_, t_);
+  auto at = [](int j) { return static_cast<std::size_t>(j + G); };
+  const double off = staggered_ ? 0.0 : 0.5;  // centre of cell j: x0 + (j + off) dx
+  int j = static_cast<int>(std::floor((x - x0_) / dx_ - off + 0.5));
+  j = std::clamp(j, 0, n - 1);
+  const double xi = (x - x0_) / dx_ - (j + off);  // in [-1/2, 1/2] inside the cell
+  auto rec = [&](const std::vector<double>& v) {
+    const double dm = v[at(j)] - v[at(j - 1)], dp = v[at(j + 1)] - v[at(j)];
+    const double s = wall_centred(j, n, staggered_) ? 0.5 * (dm + dp) : minmod(dm, dp);
+    return v[at(j)] + xi * s;
+  };
+  const double hh = std::max(0.0, rec(ph));
+  return {hh, hh > cfg_.dry_depth ? rec(phu) / hh : 0.0};
 }
 
 core::Profile DamSolver::profile() const {

@@ -54,10 +54,11 @@ inline DamBoundary boundary(BoundaryType t) {
   b.type = t;
   return b;
 }
+/// A prescribed inflow in time only (the ghost position x is ignored).
 inline DamBoundary inflow(std::function<std::array<double, 2>(double)> f) {
   DamBoundary b;
   b.type = BoundaryType::Inflow;
-  b.inflow = std::move(f);
+  b.inflow = [f = std::move(f)](double t, double) { return f(t); };
   return b;
 }
 inline DamBoundary inflow(double h, double u) {

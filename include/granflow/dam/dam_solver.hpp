@@ -59,11 +59,14 @@ struct DamPhysics {
   double K(double u_x) const;
 };
 
-/// A DAM boundary: its type and, for Inflow, the state (h, u) it imposes at time t. The coupled
-/// model sets `inflow` to the depth-averaged state of a neighbouring 2D column.
+/// A DAM boundary: its type and, for Inflow, the state (h, u) it imposes at time t on a ghost
+/// cell centred at x (outside the channel). A prescribed inflow ignores x; at a 2D-to-1D
+/// interface the coupled model samples the depth-averaged 2D state at the ghost centres, which
+/// lie inside the neighbouring 2D subdomain (eqs. 19-21), so the time-staggered 1D grid reads
+/// the 2D field where its ghost cells really are.
 struct DamBoundary {
   core::BoundaryType type = core::BoundaryType::Outflow;
-  std::function<std::array<double, 2>(double)> inflow;  ///< t -> {h, u}
+  std::function<std::array<double, 2>(double t, double x)> inflow;  ///< (t, x) -> {h, u}
   static DamBoundary from(const core::BoundarySpec& spec);
 };
 
@@ -107,6 +110,15 @@ class DamSolver final : public core::Stepper {
   /// Mass on the current grid (end cells of the staggered grid count half).
   double mass() const;
   long positivity_fixes() const { return positivity_fixes_; }
+  /// Depth and velocity at x from the piecewise-linear (minmod) reconstruction of the current
+  /// grid, x in [x_left, x_right]; at a 1D-to-2D interface this is the state the 2D inflow takes
+  /// (eq. 24) whichever of the two staggered grids is current.
+  std::array<double, 2> sample(double x) const;
+  /// Mass [m^2] that entered through the left end and left through the right end in the last
+  /// accepted step (exact ledger terms): what a neighbouring subdomain must give or receive.
+  std::array<double, 2> last_transfer() const { return last_transfer_; }
+  double x_left() const { return x0_; }
+  double x_right() const { return x1_; }
 
  private:
   static constexpr int G = 2;  // ghost cells per side
@@ -139,6 +151,7 @@ class DamSolver final : public core::Stepper {
   // ledger
   double mass0_ = 0.0, mass_in_ = 0.0, mass_out_ = 0.0;
   long positivity_fixes_ = 0;
+  std::array<double, 2> last_transfer_{0.0, 0.0};
   double dt_min_ = 0.0, dt_max_ = 0.0;
 };
 

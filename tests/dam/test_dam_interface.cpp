@@ -1,0 +1,77 @@
+// The DAM's interface API for the coupled model: sampling the reconstruction at any x on either
+// staggered grid, the per-step boundary transfers, and a 1D/1D split channel whose downstream
+// part reads its inflow ghosts from the upstream part (the exchange a 2D-to-1D interface uses).
+#include "dam_test_util.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace granflow;
+using namespace granflow::dam;
+using namespace granflow::dam::testing;
+
+TEST(DamInterface, SampleReproducesLinearDataOnBothGrids) {
+  // h = 0.05 + 0.02 x, u = 1 + x on [0, 1] at rest in time (we only sample, never step on).
+  DamSolver s(0.0, 1.0, config(50, Scheme::Minmod, EarthPressure::Isotropic),
+              incline(30, 20, 30, EarthPressure::Isotropic), boundary(BoundaryType::Outflow),
+              boundary(BoundaryType::Outflow));
+  s.set_state([](double x) { return 0.05 + 0.02 * x; }, [](double x) { return 1.0 + x; });
+  // hu = h u is quadratic, so u from the linear reconstructions of h and hu carries an
+  // O(dx^2) = 4e-4 error; h is linear and exact up to round-off away from the end cells,
+  // where the zero-gradient ghosts flatten the slope.
+  for (double x : {0.1, 0.333, 0.5, 0.77, 0.9}) {
+    const auto v = s.sample(x);
+    EXPECT_NEAR(v[0], 0.05 + 0.02 * x, 1e-14) << x;
+    EXPECT_NEAR(v[1], 1.0 + x, 1e-3) << x;
+  }
+}
+
+TEST(DamInterface, SplitChannelMatchesSingleChannelAndPassesMass) {
+  // Steady supercritical flow from an inflow (0.04 m, 1.5 m/s) down (35, 25, 35) with K_act.
+  // Channel [0, 2] in one piece, and split at x = 1 with the downstream part's inflow ghosts
+  // sampled from the upstream part at the ghost centres (which lie inside [0, 1]).
+  const auto phys = incline(35, 25, 35, EarthPressure::Active);
+  const auto cfg = config(200, Scheme::Minmod, EarthPressure::Active);
+  auto cfg_half = cfg;
+  cfg_half.cells = 100;
+  DamSolver whole(0.0, 2.0, cfg, phys, inflow(0.04, 1.5), boundary(BoundaryType::Outflow));
+  DamSolver up(0.0, 1.0, cfg_half, phys, inflow(0.04, 1.5), boundary(BoundaryType::Outflow));
+  DamBoundary from_up;
+  from_up.type = BoundaryType::Inflow;
+  from_up.inflow = [&up](double, double x) { return up.sample(x); };
+  DamSolver down(1.0, 2.0, cfg_half, phys, from_up, boundary(BoundaryType::Outflow));
+  for (DamSolver* s : {&whole, &up, &down})
+    s->set_state([](double) { return 0.0; }, [](double) { return 0.0; });
+  advance(whole, 3.0);
+  double passed_up = 0.0, taken_down = 0.0;
+  while (up.time() < 3.0 - 1e-12) {
+    const double dt = std::min({up.stable_dt(), down.stable_dt(), 3.0 - up.time()});
+    up.step(dt);
+    down.step(dt);  // reads `up` at time t: explicit exchange
+    ASSERT_TRUE(up.check().ok && down.check().ok);
+    up.accept();
+    down.accept();
+    passed_up += up.last_transfer()[1];
+    taken_down += down.last_transfer()[0];
+  }
+  std::vector<double> hw, huw, hd, hud;
+  whole.primary(hw, huw);
+  down.primary(hd, hud);
+  double err = 0.0, ref = 0.0;
+  for (int j = 0; j < 100; ++j) {
+    const auto k = static_cast<std::size_t>(j);
+    err = std::max(err, std::abs(hud[k] - huw[k + 100]));
+    ref = std::max(ref, std::abs(huw[k + 100]));
+  }
+  std::printf("[measured] split vs whole channel: max |hu diff| / max hu = %.2e; mass out of "
+              "upstream %.6f, into downstream %.6f m^2\n", err / ref, passed_up, taken_down);
+  // The split differs from the single channel only by the interface treatment: the ghosts of
+  // `down` take the upstream reconstruction at time t also for the half step (first order in
+  // time there) and Minmod's steady-state noise of ~2 % in hu (see SteadySupercriticalProfile)
+  // is present in both runs independently. 3 % bounds both; a reflection or a lost mass flux
+  // would show as an O(1) difference.
+  EXPECT_LT(err / ref, 3e-2);
+  // Steady state: what leaves `up` enters `down`, up to the unsteadiness of the noise (1 %).
+  EXPECT_NEAR(taken_down, passed_up, 1e-2 * passed_up);
+}
