@@ -1,0 +1,76 @@
+#pragma once
+// The staggered marker-and-cell (MAC) grid of the N-DAM on the box [0, Lx] x [0, Lz], x along
+// the slope, z normal to it (paper section 2.3, NaSt2D lineage):
+//
+//        w(i,k)                 p(i,k), nu_eff(i,k), flag(i,k)  at the cell centre
+//     +----^----+               u(i,k)  on the RIGHT face of cell (i,k)  x = (i+1) dx
+//     |         |               w(i,k)  on the TOP face of cell (i,k)    z = (k+1) dz
+//     |  p(i,k) > u(i,k)        u(-1,k) is the left wall face x = 0, w(i,-1) the bottom wall
+//     |         |               face z = 0.
+//     +---------+
+//
+// MPI: the columns are split into x-slabs, one per rank. A rank owns the columns
+// [i0, i0 + nx_local) and stores G ghost columns on each side (filled from the neighbour ranks,
+// periodically wrapped, or from the boundary conditions) and one ghost row below and above.
+// Every face is owned by exactly one rank: the one that owns the cell to its left (u) or the
+// cell below it (w).
+#include <cstddef>
+#include <vector>
+
+namespace granflow::ndam {
+
+/// Cell flags (NaSt2D): obstacle and fluid now; surface and empty arrive with the free surface.
+enum class CellFlag : int { Obstacle = 0, Fluid = 1, Surface = 2, Empty = 3 };
+
+struct Grid {
+  int nx = 32, nz = 32;          ///< global cells
+  double lx = 1.0, lz = 1.0;     ///< box [m]
+  double dx() const { return lx / nx; }
+  double dz() const { return lz / nz; }
+};
+
+/// This rank's part of the grid.
+struct Slab {
+  int rank = 0, ranks = 1;
+  int i0 = 0;        ///< first owned global column
+  int nx_local = 0;  ///< owned columns
+  /// Balanced contiguous split of nx columns over `ranks` ranks.
+  static Slab split(int nx, int rank, int ranks) {
+    Slab s;
+    s.rank = rank;
+    s.ranks = ranks;
+    const int base = nx / ranks, extra = nx % ranks;
+    s.nx_local = base + (rank < extra ? 1 : 0);
+    s.i0 = rank * base + (rank < extra ? rank : extra);
+    return s;
+  }
+};
+
+/// A cell-indexed array of one rank with G ghost columns and one ghost row on each side;
+/// (i, k) with i in [-G, nx_local + G), k in [-1, nz].
+class Field {
+ public:
+  static constexpr int G = 2;
+  Field() = default;
+  Field(int nx_local, int nz, double v = 0.0)
+      : nxl_(nx_local), nz_(nz),
+        a_(static_cast<std::size_t>((nx_local + 2 * G) * (nz + 2)), v) {}
+  std::size_t index(int i, int k) const {
+    return static_cast<std::size_t>((i + G) * (nz_ + 2) + (k + 1));
+  }
+  double& operator()(int i, int k) { return a_[index(i, k)]; }
+  double operator()(int i, int k) const { return a_[index(i, k)]; }
+  double* column(int i) { return &a_[index(i, -1)]; }  ///< nz + 2 values of column i
+  const double* column(int i) const { return &a_[index(i, -1)]; }
+  int nx_local() const { return nxl_; }
+  int nz() const { return nz_; }
+  std::vector<double>& data() { return a_; }
+  const std::vector<double>& data() const { return a_; }
+  void fill(double v) { a_.assign(a_.size(), v); }
+
+ private:
+  int nxl_ = 0, nz_ = 0;
+  std::vector<double> a_;
+};
+
+}  // namespace granflow::ndam

@@ -1,0 +1,225 @@
+#pragma once
+// Free surface of the N-DAM by marker particles (marker-and-cell method; paper section 2.3,
+// NaSt2D lineage: Griebel, Dornseifer, Neunhoeffer 1998, ch. 7).
+//
+// Markers are massless points that carry no state but their position. They
+//  - are seeded n_x x n_z per cell on a regular sub-lattice (deterministic positions
+//    ((a + 1/2) dx / n_x, (b + 1/2) dz / n_z) inside each cell), so each marker stands for the
+//    area A_m = dx dz / (n_x n_z) of material;
+//  - are injected at an inflow opening on the left side (x = 0, 0 <= z < h_in) with the
+//    inflow face velocities, one marker row per sub-lattice row, each row with a fractional
+//    accumulator so that the injected area equals int_0^t int_0^h_in u dz dt to within one
+//    marker per row, with no drift;
+//  - are advected with Heun's method (explicit trapezoidal RK2, second order in time) in the
+//    staggered velocity interpolated bilinearly as in NaSt2D (u on the grid shifted by dz/2 in
+//    z, w on the grid shifted by dx/2 in x);
+//  - are kept inside rigid walls by reflection, removed at an open outflow, wrapped at periodic
+//    sides, kept out of obstacle cells;
+//  - migrate between the MPI x-slabs of the grid (Slab) after each move.
+// From the markers the module derives the cell flags (Fluid, Surface with the bitmask of its
+// empty sides, Empty; Obstacle kept), the flow depth h of each column, the depth-averaged
+// velocity u_mean of eq. (21), and the marker area for the mass balance.
+//
+// Conventions are those of grid.hpp: local column i of a rank is global column slab.i0 + i;
+// u(i,k) lives on the RIGHT face of cell (i,k) at x = (i0 + i + 1) dx, z = (k + 1/2) dz; w(i,k)
+// on its TOP face at x = (i0 + i + 1/2) dx, z = (k + 1) dz. Owned-cell arrays (flags, counts)
+// are indexed i * nz + k with i in [0, nx_local), as the N-DAM solver stores its flags.
+//
+// Collective calls (every rank of the communicator must call them): the constructor,
+// set_obstacles, advect, migrate, update_flags, mass, global_count, gather. The others are
+// rank-local.
+#include "granflow/ndam/grid.hpp"
+
+#include <mpi.h>
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+namespace granflow::ndam {
+
+/// What a side of the box does to markers. Index the array in MarkerConfig by side:
+/// 0 left (x = 0), 1 right (x = Lx), 2 bottom (z = 0), 3 top (z = Lz).
+enum class MarkerBoundary {
+  Wall,      ///< rigid: a marker that crosses is reflected back inside
+  Inflow,    ///< left side only: markers are injected by inject(); a crossing one is reflected
+  Outflow,   ///< open: a marker that crosses is removed (and counted in `removed`)
+  Periodic   ///< left and right together: x wraps
+};
+
+/// Flow depth of a column from its markers (see depth()).
+enum class DepthMethod {
+  Count,  ///< h = A_m N_col / dx: the marker area of the column per unit width (default)
+  Top     ///< h = z of the n_x-th highest marker of the column + dz / (2 n_z)
+};
+
+struct MarkerConfig {
+  int per_cell_x = 4;  ///< markers per cell along x (n_x)
+  int per_cell_z = 4;  ///< markers per cell along z (n_z)
+  std::array<MarkerBoundary, 4> sides{MarkerBoundary::Wall, MarkerBoundary::Wall,
+                                      MarkerBoundary::Wall, MarkerBoundary::Wall};
+  DepthMethod depth = DepthMethod::Count;
+};
+
+struct Marker {
+  double x = 0.0, z = 0.0;  ///< position [m], 0 <= x < Lx, 0 <= z < Lz
+  long long id = 0;         ///< unique over all ranks (seeding: from the cell; injection: a counter)
+};
+
+/// Bits of the empty-side mask of a Surface cell (NaSt2D's surface cell types).
+namespace empty_side {
+constexpr std::uint8_t Left = 1, Right = 2, Bottom = 4, Top = 8;
+}
+
+/// Global marker bookkeeping (areas in m^2 of the x-z plane, i.e. m^3 per metre of width).
+struct MarkerMass {
+  long long count = 0;     ///< markers now
+  long long injected = 0;  ///< injected since construction
+  long long removed = 0;   ///< removed at outflows or by remove_if since construction
+  double area = 0.0, injected_area = 0.0, removed_area = 0.0;  ///< the counts times A_m
+};
+
+/// Everything a checkpoint needs to restore this rank's marker set bit for bit.
+struct MarkerState {
+  std::vector<Marker> markers;
+  std::vector<double> inflow_accumulators;
+  long long seed_base = 0, inject_next = 0, injected = 0, removed = 0, migrated = 0;
+};
+
+/// Per owned column: depth, depth-averaged u (eq. 21) and w (for eps = |w_mean| / |u_mean|).
+struct ColumnProfile {
+  std::vector<double> x, h, u_mean, w_mean;
+};
+
+class MarkerSet {
+ public:
+  /// `grid` and `slab` as the N-DAM solver uses them on `comm` (slab.rank/ranks must match).
+  MarkerSet(MPI_Comm comm, const Grid& grid, const Slab& slab, const MarkerConfig& cfg);
+
+  // --- geometry -----------------------------------------------------------------------------
+  double spacing_x() const { return dx_ / cfg_.per_cell_x; }
+  double spacing_z() const { return dz_ / cfg_.per_cell_z; }
+  double marker_area() const { return spacing_x() * spacing_z(); }
+  const MarkerConfig& config() const { return cfg_; }
+
+  // --- seeding and removal (rank-local; call on every rank with the same arguments) ----------
+  /// Adds the sub-lattice markers of the owned cells whose position satisfies inside(x, z)
+  /// (cells flagged Obstacle by set_obstacles are skipped). Returns the markers added here.
+  long long seed(const std::function<bool(double x, double z)>& inside);
+  /// seed() of the layer z < h(x).
+  long long seed_depth(const std::function<double(double x)>& h);
+  /// Removes this rank's markers with pred(x, z) (counted in `removed`). Returns the number.
+  long long remove_if(const std::function<bool(double x, double z)>& pred);
+  /// Removes all markers and resets the counters and inflow accumulators.
+  void clear();
+
+  // --- inflow ---------------------------------------------------------------------------------
+  /// Injects the markers that entered through the inflow opening 0 <= z < h_in of the left
+  /// side during dt. Row r of the marker sub-lattice covers the strip [r s_z, min((r+1) s_z,
+  /// h_in)] of height s_r; its inflow q_r (m^2/s) adds q_r dt / A_m to the row's accumulator,
+  /// and every whole unit becomes a marker at z = strip centre and x = the distance travelled
+  /// at the strip's mean velocity q_r / s_r since it crossed x = 0 during the step. So the
+  /// injected area is int q dt to within one marker per row, without drift, for any dt
+  /// sequence. Strips with q_r <= 0 inject nothing. Only the rank owning column 0 acts (the
+  /// others return at once); the left side must be MarkerBoundary::Inflow. Call after advect().
+  ///
+  /// This overload: q_r = int_strip u_in(z) dz (3-point Gauss per strip, exact for profiles of
+  /// degree <= 5), so the total is int_0^h_in u_in dz = h_in u_mean.
+  void inject(double dt, double h_in, const std::function<double(double z)>& u_in);
+  /// This overload: q_r = u_face[k] s_r with k the cell row of the strip; u_face[k] is the mean
+  /// inflow velocity over the OPENING part of the face of row k (for a face only partly below
+  /// h_in this differs from a face value u(-1,k) that carries the flux u(-1,k) dz: pass
+  /// u(-1,k) dz / (opening part of the face) there).
+  void inject(double dt, double h_in, const std::vector<double>& u_face);
+  /// The fractional accumulators of the injection rows (for checkpoints and tests).
+  const std::vector<double>& inflow_accumulators() const { return acc_; }
+  void set_inflow_accumulators(const std::vector<double>& a) { acc_ = a; }
+
+  // --- advection ------------------------------------------------------------------------------
+  /// Moves every marker over [t, t + dt] with Heun's method
+  ///   x* = x + dt v^n(x),   x^{n+1} = x + dt/2 (v^n(x) + v^{n+1}(x*)),
+  /// v^n from (u0, w0), v^{n+1} from (u1, w1) (pass the same fields twice for a frozen velocity).
+  /// The fields need their ghost columns and ghost rows filled (neighbour ranks, periodic wrap,
+  /// and the wall conditions, as the solver does before its own stencils). x* and x^{n+1} are
+  /// reflected at walls; a marker whose new position lies in an obstacle cell moves only
+  /// along x, or only along z, or stays where it was (first of these that is free). Then
+  /// outflow removal, periodic wrap and migrate(). Requires |v| dt < dx (CFL <= 1): a stage
+  /// that leaves the ghost columns throws std::runtime_error.
+  void advect(double dt, const Field& u0, const Field& w0, const Field& u1, const Field& w1);
+  void advect(double dt, const Field& u, const Field& w) { advect(dt, u, w, u, w); }
+  /// Velocity (u, w) interpolated at (x, z) as advect() does (x within one column of the slab).
+  std::array<double, 2> velocity(const Field& u, const Field& w, double x, double z) const;
+  /// Hands markers outside this rank's slab to the neighbour ranks until each rank holds
+  /// exactly the markers of its columns (pack, MPI_Sendrecv, unpack; repeated while any moves).
+  void migrate();
+
+  // --- obstacles and flags --------------------------------------------------------------------
+  /// Records the Obstacle cells of `flags` (owned cells, i * nz + k) with the neighbours' ghost
+  /// columns. Obstacles are static until the next call.
+  void set_obstacles(const std::vector<CellFlag>& flags);
+  /// Markers per owned cell (i * nz + k).
+  std::vector<int> cell_counts() const;
+  /// Sets the flags of the owned cells (size nx_local * nz): cells flagged Obstacle (in `flags`
+  /// or by set_obstacles) stay Obstacle; a cell without markers is Empty; a cell with markers
+  /// is Surface when at least one of its 4 neighbours is Empty, else Fluid. Neighbours outside
+  /// the box (walls, inflow, outflow, top) count as not empty; across a periodic side they are
+  /// the wrapped cells. If `empty_sides` is given it receives per cell the mask of
+  /// empty_side bits of its Empty neighbours (0 unless Surface).
+  void update_flags(std::vector<CellFlag>& flags, std::vector<std::uint8_t>* empty_sides = nullptr) const;
+
+  // --- depth, profiles, mass ------------------------------------------------------------------
+  /// Flow depth of each owned column (config().depth):
+  ///  Count: h = A_m N / dx with N the markers of the column (area-equivalent depth; sum h dx
+  ///         is the marker area, one stray marker changes h by only s_z / n_x);
+  ///  Top:   h = z_(n_x) + s_z / 2 with z_(n_x) the n_x-th highest marker (the top of the
+  ///         highest complete marker row; up to n_x - 1 stray markers above are ignored);
+  ///         Count is used when the column holds fewer than n_x markers.
+  std::vector<double> depth() const;
+  /// Depth and the depth averages (eq. 21) u_mean = 1/h int_0^h u dz, likewise w_mean, of each
+  /// owned column at its centre x. u and w at the cell centre are the means of the two faces;
+  /// the integral takes full cells below h and the fraction (h - k dz) / dz of the cell
+  /// containing h. Columns with h = 0 report 0.
+  ColumnProfile profile(const Field& u, const Field& w) const;
+  /// Global counts and areas (collective).
+  MarkerMass mass() const;
+  long long global_count() const;
+
+  // --- access ---------------------------------------------------------------------------------
+  const std::vector<Marker>& markers() const { return m_; }
+  /// Adds markers as given (ids must be unique); they are migrated by the next migrate().
+  void add(const std::vector<Marker>& ms) { m_.insert(m_.end(), ms.begin(), ms.end()); }
+  /// Markers this rank has sent to its neighbours since construction (statistics).
+  long long migrated() const { return migrated_; }
+  /// All markers of all ranks, sorted by id, on every rank (collective; tests and output).
+  std::vector<Marker> gather() const;
+  /// This rank's state for a checkpoint, and its restoration (same grid, slab and config).
+  MarkerState save() const;
+  void load(const MarkerState& s);
+
+ private:
+  int global_column(double x) const;  // floor(x / dx) clamped to [0, nx)
+  bool obstacle_at(double x, double z) const;  // x within G columns of the slab
+  void wall(double& x, double& z) const;       // reflect at wall/inflow sides
+  void inject_rows(double dt, double h_in,
+                   const std::function<double(double zb, double zt)>& strip_flux);
+  // Sends the n values `first` (of this rank's first columns) to the left neighbour and `last`
+  // to the right one; receives the left neighbour's last columns into ghost_left and the right
+  // one's first columns into ghost_right; where there is no neighbour, fills with `fill`.
+  void halo(const std::vector<int>& first, const std::vector<int>& last,
+            std::vector<int>& ghost_left, std::vector<int>& ghost_right, int fill) const;
+
+  MPI_Comm comm_;
+  Grid grid_;
+  Slab slab_;
+  MarkerConfig cfg_;
+  double dx_, dz_;
+  int left_ = MPI_PROC_NULL, right_ = MPI_PROC_NULL;  // neighbour ranks
+  std::vector<Marker> m_;
+  std::vector<char> obst_;  // (nx_local + 2G) * nz, column i + G
+  std::vector<double> acc_;  // injection row accumulators
+  long long seed_base_ = 0, inject_next_ = 0;
+  long long injected_ = 0, removed_ = 0, migrated_ = 0;  // this rank's counters
+};
+
+}  // namespace granflow::ndam

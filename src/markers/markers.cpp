@@ -1,0 +1,474 @@
+// Free-surface marker particles of the N-DAM (see include/granflow/ndam/markers.hpp and
+// docs/numerics.md, "Free surface: markers").
+#include "granflow/ndam/markers.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace granflow::ndam {
+
+namespace {
+constexpr int G = Field::G;
+constexpr long long kInjectedIdBase = 1LL << 62;  // ids of injected markers start here
+constexpr int kLeft = 0, kRight = 1, kBottom = 2, kTop = 3;
+
+// Largest double below v (keeps a reflected or clamped coordinate strictly inside [0, L)).
+double below(double v) { return std::nextafter(v, -1.0e300); }
+}  // namespace
+
+MarkerSet::MarkerSet(MPI_Comm comm, const Grid& grid, const Slab& slab, const MarkerConfig& cfg)
+    : comm_(comm), grid_(grid), slab_(slab), cfg_(cfg), dx_(grid.dx()), dz_(grid.dz()) {
+  if (cfg_.per_cell_x < 1 || cfg_.per_cell_z < 1)
+    throw std::invalid_argument("markers: markers per cell must be >= 1 in x and z");
+  if (slab_.nx_local < G)
+    throw std::invalid_argument("markers: each rank needs at least " + std::to_string(G) +
+                                " columns (has " + std::to_string(slab_.nx_local) + ")");
+  const bool pl = cfg_.sides[kLeft] == MarkerBoundary::Periodic;
+  const bool pr = cfg_.sides[kRight] == MarkerBoundary::Periodic;
+  if (pl != pr) throw std::invalid_argument("markers: periodic needs both left and right sides");
+  if (cfg_.sides[kBottom] == MarkerBoundary::Periodic || cfg_.sides[kTop] == MarkerBoundary::Periodic)
+    throw std::invalid_argument("markers: periodic is only supported in x");
+  int rank = 0, ranks = 1;
+  MPI_Comm_rank(comm_, &rank);
+  MPI_Comm_size(comm_, &ranks);
+  if (rank != slab_.rank || ranks != slab_.ranks)
+    throw std::invalid_argument("markers: the slab does not match the communicator");
+  if (rank > 0) left_ = rank - 1;
+  else if (pl) left_ = ranks - 1;
+  if (rank < ranks - 1) right_ = rank + 1;
+  else if (pr) right_ = 0;
+  obst_.assign(static_cast<std::size_t>((slab_.nx_local + 2 * G) * grid_.nz), 0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// seeding and removal
+
+long long MarkerSet::seed(const std::function<bool(double, double)>& inside) {
+  const int nmx = cfg_.per_cell_x, nmz = cfg_.per_cell_z, nz = grid_.nz;
+  const double sx = spacing_x(), sz = spacing_z();
+  long long added = 0;
+  for (int i = 0; i < slab_.nx_local; ++i) {
+    const int gi = slab_.i0 + i;
+    for (int k = 0; k < nz; ++k) {
+      if (obst_[static_cast<std::size_t>((i + G) * nz + k)]) continue;
+      for (int a = 0; a < nmx; ++a)
+        for (int b = 0; b < nmz; ++b) {
+          const double x = gi * dx_ + (a + 0.5) * sx, z = k * dz_ + (b + 0.5) * sz;
+          if (!inside(x, z)) continue;
+          const long long id =
+              seed_base_ + ((static_cast<long long>(gi) * nz + k) * nmx + a) * nmz + b;
+          m_.push_back(Marker{x, z, id});
+          ++added;
+        }
+    }
+  }
+  seed_base_ += static_cast<long long>(grid_.nx) * nz * nmx * nmz;
+  return added;
+}
+
+long long MarkerSet::seed_depth(const std::function<double(double)>& h) {
+  return seed([&h](double x, double z) { return z < h(x); });
+}
+
+long long MarkerSet::remove_if(const std::function<bool(double, double)>& pred) {
+  const auto end = std::remove_if(m_.begin(), m_.end(),
+                                  [&pred](const Marker& m) { return pred(m.x, m.z); });
+  const long long n = static_cast<long long>(m_.end() - end);
+  m_.erase(end, m_.end());
+  removed_ += n;
+  return n;
+}
+
+void MarkerSet::clear() {
+  m_.clear();
+  acc_.clear();
+  injected_ = removed_ = 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// inflow
+
+void MarkerSet::inject(double dt, double h_in, const std::vector<double>& u_face) {
+  inject_rows(dt, h_in, [&](double zb, double zt) {
+    const int k = std::min(static_cast<int>(0.5 * (zb + zt) / dz_), grid_.nz - 1);
+    if (k >= static_cast<int>(u_face.size()))
+      throw std::invalid_argument("markers: inject() needs u_face for every row of the opening");
+    return u_face[static_cast<std::size_t>(k)] * (zt - zb);
+  });
+}
+
+void MarkerSet::inject(double dt, double h_in, const std::function<double(double)>& u_in) {
+  // 3-point Gauss-Legendre per strip: exact for profiles up to degree 5 in z.
+  static const double xg[3] = {-std::sqrt(0.6), 0.0, std::sqrt(0.6)};
+  static const double wg[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
+  inject_rows(dt, h_in, [&](double zb, double zt) {
+    const double c = 0.5 * (zb + zt), r = 0.5 * (zt - zb);
+    double q = 0.0;
+    for (int j = 0; j < 3; ++j) q += wg[j] * u_in(c + r * xg[j]);
+    return q * r;
+  });
+}
+
+void MarkerSet::inject_rows(double dt, double h_in,
+                            const std::function<double(double, double)>& strip_flux) {
+  if (cfg_.sides[kLeft] != MarkerBoundary::Inflow)
+    throw std::logic_error("markers: inject() needs an Inflow left side");
+  if (slab_.i0 != 0 || h_in <= 0.0 || dt <= 0.0) return;
+  const double sz = spacing_z(), a = marker_area();
+  const double top = std::min(h_in, grid_.lz);
+  const int rows = std::max(0, static_cast<int>(std::ceil(top / sz - 1e-9)));
+  if (static_cast<int>(acc_.size()) < rows) acc_.resize(static_cast<std::size_t>(rows), 0.0);
+  const double xmax = below(std::min(dx_, grid_.lx));
+  for (int r = 0; r < rows; ++r) {
+    const double zb = r * sz, zt = std::min((r + 1) * sz, top), s = zt - zb;
+    if (s <= 0.0) continue;
+    const double q = strip_flux(zb, zt);  // m^2/s through the strip
+    if (!(q > 0.0)) continue;
+    const double dn = q * dt / a;  // markers entering this row during dt
+    const double uf = q / s;       // the strip's mean inflow velocity
+    const double A = acc_[static_cast<std::size_t>(r)] + dn;
+    const long long n = static_cast<long long>(std::floor(A));
+    for (long long j = 1; j <= n; ++j) {
+      // The j-th unit crossed x = 0 when the accumulator passed j, a fraction (A - j) / dn of
+      // the step ago: it has travelled that fraction of uf dt since.
+      const double x = std::clamp((A - static_cast<double>(j)) / dn * uf * dt, 0.0, xmax);
+      m_.push_back(Marker{x, zb + 0.5 * s, kInjectedIdBase + inject_next_++});
+    }
+    acc_[static_cast<std::size_t>(r)] = A - static_cast<double>(n);
+    injected_ += n;
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// advection
+
+std::array<double, 2> MarkerSet::velocity(const Field& u, const Field& w, double x,
+                                          double z) const {
+  const int nxl = slab_.nx_local, nz = grid_.nz;
+  // u on the grid x = (gi) dx (faces), z = (k + 1/2) dz: NaSt2D's u-grid shifted by dz/2.
+  double gx = x / dx_;
+  double fl = std::floor(gx);
+  int li = static_cast<int>(fl) - 1 - slab_.i0;  // local index of the face at x = fl dx
+  double fx = gx - fl;
+  double gz = z / dz_ - 0.5;
+  double flz = std::floor(gz);
+  int k = static_cast<int>(flz);
+  double fz = gz - flz;
+  if (li < -G || li + 1 >= nxl + G || k < -1 || k + 1 > nz)
+    throw std::runtime_error("markers: position (" + std::to_string(x) + ", " + std::to_string(z) +
+                             ") outside the ghost layers of rank " + std::to_string(slab_.rank) +
+                             " (CFL > 1?)");
+  const double uu = (1 - fx) * (1 - fz) * u(li, k) + fx * (1 - fz) * u(li + 1, k) +
+                    (1 - fx) * fz * u(li, k + 1) + fx * fz * u(li + 1, k + 1);
+  // w on the grid x = (gi + 1/2) dx, z = k dz (faces): shifted by dx/2.
+  gx = x / dx_ - 0.5;
+  fl = std::floor(gx);
+  li = static_cast<int>(fl) - slab_.i0;
+  fx = gx - fl;
+  gz = z / dz_;
+  flz = std::floor(gz);
+  k = static_cast<int>(flz) - 1;  // w(i, k) is the top face of cell k, at z = (k + 1) dz
+  fz = gz - flz;
+  if (li < -G || li + 1 >= nxl + G || k < -1 || k + 1 > nz)
+    throw std::runtime_error("markers: position (" + std::to_string(x) + ", " + std::to_string(z) +
+                             ") outside the ghost layers of rank " + std::to_string(slab_.rank) +
+                             " (CFL > 1?)");
+  const double ww = (1 - fx) * (1 - fz) * w(li, k) + fx * (1 - fz) * w(li + 1, k) +
+                    (1 - fx) * fz * w(li, k + 1) + fx * fz * w(li + 1, k + 1);
+  return {uu, ww};
+}
+
+void MarkerSet::wall(double& x, double& z) const {
+  const auto rigid = [](MarkerBoundary b) {
+    return b == MarkerBoundary::Wall || b == MarkerBoundary::Inflow;
+  };
+  if (x < 0.0 && rigid(cfg_.sides[kLeft])) x = std::min(-x, below(grid_.lx));
+  if (x >= grid_.lx && rigid(cfg_.sides[kRight])) x = std::max(below(2.0 * grid_.lx - x), 0.0);
+  if (z < 0.0 && rigid(cfg_.sides[kBottom])) z = std::min(-z, below(grid_.lz));
+  if (z >= grid_.lz && rigid(cfg_.sides[kTop])) z = std::max(below(2.0 * grid_.lz - z), 0.0);
+}
+
+bool MarkerSet::obstacle_at(double x, double z) const {
+  const int li = static_cast<int>(std::floor(x / dx_)) - slab_.i0;
+  const int k = static_cast<int>(std::floor(z / dz_));
+  if (li < -G || li >= slab_.nx_local + G || k < 0 || k >= grid_.nz) return false;
+  return obst_[static_cast<std::size_t>((li + G) * grid_.nz + k)] != 0;
+}
+
+void MarkerSet::advect(double dt, const Field& u0, const Field& w0, const Field& u1,
+                       const Field& w1) {
+  const double lx = grid_.lx, lz = grid_.lz;
+  const bool periodic = cfg_.sides[kLeft] == MarkerBoundary::Periodic;
+  const auto out = [this](int side) { return cfg_.sides[side] == MarkerBoundary::Outflow; };
+  std::size_t keep = 0;
+  for (std::size_t n = 0; n < m_.size(); ++n) {
+    Marker m = m_[n];
+    const auto v0 = velocity(u0, w0, m.x, m.z);
+    double xs = m.x + dt * v0[0], zs = m.z + dt * v0[1];
+    wall(xs, zs);
+    // A stage beyond an outflow side is evaluated on that side (the ghost layer is one cell).
+    if (!periodic) xs = std::clamp(xs, 0.0, lx);
+    zs = std::clamp(zs, 0.0, lz);
+    const auto v1 = velocity(u1, w1, xs, zs);
+    double xn = m.x + 0.5 * dt * (v0[0] + v1[0]);
+    double zn = m.z + 0.5 * dt * (v0[1] + v1[1]);
+    wall(xn, zn);
+    if (obstacle_at(xn, zn)) {
+      if (!obstacle_at(xn, m.z)) zn = m.z;
+      else if (!obstacle_at(m.x, zn)) xn = m.x;
+      else { xn = m.x; zn = m.z; }
+    }
+    if ((xn < 0.0 && out(kLeft)) || (xn >= lx && out(kRight)) || (zn < 0.0 && out(kBottom)) ||
+        (zn >= lz && out(kTop))) {
+      ++removed_;
+      continue;
+    }
+    if (periodic) {
+      if (xn >= lx) xn -= lx;
+      else if (xn < 0.0) xn += lx;
+      if (xn >= lx || xn < 0.0) xn = 0.0;  // -tiny + lx rounds to lx
+    }
+    m.x = xn;
+    m.z = zn;
+    m_[keep++] = m;
+  }
+  m_.resize(keep);
+  migrate();
+}
+
+int MarkerSet::global_column(double x) const {
+  const int gi = static_cast<int>(std::floor(x / dx_));
+  return std::clamp(gi, 0, grid_.nx - 1);
+}
+
+void MarkerSet::migrate() {
+  if (slab_.ranks == 1) return;
+  const int lo = slab_.i0, hi = slab_.i0 + slab_.nx_local;
+  const MPI_Datatype bytes = MPI_BYTE;
+  const int msz = static_cast<int>(sizeof(Marker));
+  for (int round = 0;; ++round) {
+    std::vector<Marker> keep, to_left, to_right;
+    keep.reserve(m_.size());
+    for (const Marker& m : m_) {
+      const int gi = global_column(m.x);
+      if (gi < lo) to_left.push_back(m);
+      else if (gi >= hi) to_right.push_back(m);
+      else keep.push_back(m);
+    }
+    long long moving = static_cast<long long>(to_left.size() + to_right.size()), any = 0;
+    MPI_Allreduce(&moving, &any, 1, MPI_LONG_LONG, MPI_SUM, comm_);
+    if (any == 0) return;
+    if (round > slab_.ranks)
+      throw std::runtime_error("markers: migration does not settle");
+    m_.swap(keep);
+    migrated_ += moving;
+    // Non-periodic: a marker left of rank 0 or right of the last rank cannot exist (columns are
+    // clamped), so MPI_PROC_NULL never receives anything that matters.
+    const auto shift = [&](const std::vector<Marker>& out, int dest, int src, int tag) {
+      int ns = static_cast<int>(out.size()), nr = 0;
+      MPI_Sendrecv(&ns, 1, MPI_INT, dest, tag, &nr, 1, MPI_INT, src, tag, comm_, MPI_STATUS_IGNORE);
+      std::vector<Marker> in(static_cast<std::size_t>(nr));
+      MPI_Sendrecv(out.data(), ns * msz, bytes, dest, tag + 1, in.data(), nr * msz, bytes, src,
+                   tag + 1, comm_, MPI_STATUS_IGNORE);
+      m_.insert(m_.end(), in.begin(), in.end());
+    };
+    shift(to_left, left_, right_, 100);
+    shift(to_right, right_, left_, 200);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// obstacles and flags
+
+void MarkerSet::halo(const std::vector<int>& first, const std::vector<int>& last,
+                     std::vector<int>& ghost_left, std::vector<int>& ghost_right, int fill) const {
+  const int n = static_cast<int>(first.size());
+  ghost_left.assign(first.size(), fill);
+  ghost_right.assign(first.size(), fill);
+  if (left_ == MPI_PROC_NULL && right_ == MPI_PROC_NULL) return;
+  MPI_Sendrecv(first.data(), n, MPI_INT, left_, 300, ghost_right.data(), n, MPI_INT, right_, 300,
+               comm_, MPI_STATUS_IGNORE);
+  MPI_Sendrecv(last.data(), n, MPI_INT, right_, 301, ghost_left.data(), n, MPI_INT, left_, 301,
+               comm_, MPI_STATUS_IGNORE);
+  if (left_ == MPI_PROC_NULL) ghost_left.assign(first.size(), fill);
+  if (right_ == MPI_PROC_NULL) ghost_right.assign(first.size(), fill);
+}
+
+void MarkerSet::set_obstacles(const std::vector<CellFlag>& flags) {
+  const int nxl = slab_.nx_local, nz = grid_.nz;
+  if (static_cast<int>(flags.size()) != nxl * nz)
+    throw std::invalid_argument("markers: flags must hold nx_local * nz cells");
+  std::fill(obst_.begin(), obst_.end(), 0);
+  std::vector<int> first(static_cast<std::size_t>(G * nz)), last(first.size()), gl, gr;
+  for (int i = 0; i < nxl; ++i)
+    for (int k = 0; k < nz; ++k) {
+      const int o = flags[static_cast<std::size_t>(i * nz + k)] == CellFlag::Obstacle ? 1 : 0;
+      obst_[static_cast<std::size_t>((i + G) * nz + k)] = static_cast<char>(o);
+      if (i < G) first[static_cast<std::size_t>(i * nz + k)] = o;
+      if (i >= nxl - G) last[static_cast<std::size_t>((i - (nxl - G)) * nz + k)] = o;
+    }
+  halo(first, last, gl, gr, 0);
+  for (int j = 0; j < G * nz; ++j) {
+    obst_[static_cast<std::size_t>(j)] = static_cast<char>(gl[static_cast<std::size_t>(j)]);
+    obst_[static_cast<std::size_t>((nxl + G) * nz + j)] =
+        static_cast<char>(gr[static_cast<std::size_t>(j)]);
+  }
+}
+
+std::vector<int> MarkerSet::cell_counts() const {
+  const int nz = grid_.nz;
+  std::vector<int> c(static_cast<std::size_t>(slab_.nx_local * nz), 0);
+  for (const Marker& m : m_) {
+    const int i = global_column(m.x) - slab_.i0;
+    const int k = std::clamp(static_cast<int>(std::floor(m.z / dz_)), 0, nz - 1);
+    if (i >= 0 && i < slab_.nx_local) ++c[static_cast<std::size_t>(i * nz + k)];
+  }
+  return c;
+}
+
+void MarkerSet::update_flags(std::vector<CellFlag>& flags, std::vector<std::uint8_t>* empty_sides) const {
+  const int nxl = slab_.nx_local, nz = grid_.nz;
+  const std::size_t ncell = static_cast<std::size_t>(nxl * nz);
+  if (flags.empty()) flags.assign(ncell, CellFlag::Fluid);
+  if (flags.size() != ncell)
+    throw std::invalid_argument("markers: flags must hold nx_local * nz cells");
+  const std::vector<int> count = cell_counts();
+  std::vector<char> obstacle(ncell);
+  std::vector<int> full(ncell);  // 1: not empty (markers or obstacle)
+  for (int i = 0; i < nxl; ++i)
+    for (int k = 0; k < nz; ++k) {
+      const std::size_t c = static_cast<std::size_t>(i * nz + k);
+      obstacle[c] = flags[c] == CellFlag::Obstacle || obst_[static_cast<std::size_t>((i + G) * nz + k)];
+      full[c] = (obstacle[c] || count[c] > 0) ? 1 : 0;
+    }
+  std::vector<int> first(full.begin(), full.begin() + nz), last(full.end() - nz, full.end()), gl, gr;
+  halo(first, last, gl, gr, 1);  // outside the box (no neighbour rank) counts as not empty
+  if (empty_sides) empty_sides->assign(ncell, 0);
+  for (int i = 0; i < nxl; ++i)
+    for (int k = 0; k < nz; ++k) {
+      const std::size_t c = static_cast<std::size_t>(i * nz + k);
+      if (obstacle[c]) { flags[c] = CellFlag::Obstacle; continue; }
+      if (count[c] == 0) { flags[c] = CellFlag::Empty; continue; }
+      const int l = i > 0 ? full[c - static_cast<std::size_t>(nz)] : gl[static_cast<std::size_t>(k)];
+      const int r = i < nxl - 1 ? full[c + static_cast<std::size_t>(nz)] : gr[static_cast<std::size_t>(k)];
+      const int b = k > 0 ? full[c - 1] : 1;
+      const int t = k < nz - 1 ? full[c + 1] : 1;
+      std::uint8_t mask = 0;
+      if (!l) mask |= empty_side::Left;
+      if (!r) mask |= empty_side::Right;
+      if (!b) mask |= empty_side::Bottom;
+      if (!t) mask |= empty_side::Top;
+      flags[c] = mask ? CellFlag::Surface : CellFlag::Fluid;
+      if (empty_sides) (*empty_sides)[c] = mask;
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// depth, profiles, mass
+
+std::vector<double> MarkerSet::depth() const {
+  const int nxl = slab_.nx_local;
+  const double a = marker_area();
+  std::vector<double> h(static_cast<std::size_t>(nxl), 0.0);
+  if (cfg_.depth == DepthMethod::Count) {
+    for (const Marker& m : m_) {
+      const int i = global_column(m.x) - slab_.i0;
+      if (i >= 0 && i < nxl) h[static_cast<std::size_t>(i)] += 1.0;
+    }
+    for (double& v : h) v *= a / dx_;
+    return h;
+  }
+  std::vector<std::vector<double>> zs(static_cast<std::size_t>(nxl));
+  for (const Marker& m : m_) {
+    const int i = global_column(m.x) - slab_.i0;
+    if (i >= 0 && i < nxl) zs[static_cast<std::size_t>(i)].push_back(m.z);
+  }
+  const std::size_t nrow = static_cast<std::size_t>(cfg_.per_cell_x);
+  for (std::size_t i = 0; i < h.size(); ++i) {
+    auto& z = zs[i];
+    if (z.size() >= nrow) {
+      std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(nrow - 1), z.end(),
+                       std::greater<double>());
+      h[i] = z[nrow - 1] + 0.5 * spacing_z();
+    } else {
+      h[i] = a * static_cast<double>(z.size()) / dx_;
+    }
+  }
+  return h;
+}
+
+ColumnProfile MarkerSet::profile(const Field& u, const Field& w) const {
+  ColumnProfile p;
+  p.h = depth();
+  const int nxl = slab_.nx_local, nz = grid_.nz;
+  p.x.resize(p.h.size());
+  p.u_mean.assign(p.h.size(), 0.0);
+  p.w_mean.assign(p.h.size(), 0.0);
+  for (int i = 0; i < nxl; ++i) {
+    const std::size_t c = static_cast<std::size_t>(i);
+    p.x[c] = (slab_.i0 + i + 0.5) * dx_;
+    const double h = p.h[c];
+    if (!(h > 0.0)) continue;
+    double su = 0.0, sw = 0.0;
+    for (int k = 0; k < nz; ++k) {
+      const double len = std::clamp(h - k * dz_, 0.0, dz_);
+      if (len <= 0.0) break;
+      su += len * 0.5 * (u(i - 1, k) + u(i, k));
+      sw += len * 0.5 * (w(i, k - 1) + w(i, k));
+    }
+    p.u_mean[c] = su / h;
+    p.w_mean[c] = sw / h;
+  }
+  return p;
+}
+
+MarkerMass MarkerSet::mass() const {
+  long long loc[3] = {static_cast<long long>(m_.size()), injected_, removed_}, glob[3] = {0, 0, 0};
+  MPI_Allreduce(loc, glob, 3, MPI_LONG_LONG, MPI_SUM, comm_);
+  MarkerMass r;
+  const double a = marker_area();
+  r.count = glob[0];
+  r.injected = glob[1];
+  r.removed = glob[2];
+  r.area = a * static_cast<double>(r.count);
+  r.injected_area = a * static_cast<double>(r.injected);
+  r.removed_area = a * static_cast<double>(r.removed);
+  return r;
+}
+
+long long MarkerSet::global_count() const { return mass().count; }
+
+std::vector<Marker> MarkerSet::gather() const {
+  const int msz = static_cast<int>(sizeof(Marker));
+  int nloc = static_cast<int>(m_.size()) * msz;
+  std::vector<int> counts(static_cast<std::size_t>(slab_.ranks)), displs(counts.size(), 0);
+  MPI_Allgather(&nloc, 1, MPI_INT, counts.data(), 1, MPI_INT, comm_);
+  int total = 0;
+  for (std::size_t r = 0; r < counts.size(); ++r) {
+    displs[r] = total;
+    total += counts[r];
+  }
+  std::vector<Marker> all(static_cast<std::size_t>(total / msz));
+  MPI_Allgatherv(m_.data(), nloc, MPI_BYTE, all.data(), counts.data(), displs.data(), MPI_BYTE,
+                 comm_);
+  std::sort(all.begin(), all.end(), [](const Marker& a, const Marker& b) { return a.id < b.id; });
+  return all;
+}
+
+MarkerState MarkerSet::save() const {
+  return MarkerState{m_, acc_, seed_base_, inject_next_, injected_, removed_, migrated_};
+}
+
+void MarkerSet::load(const MarkerState& s) {
+  m_ = s.markers;
+  acc_ = s.inflow_accumulators;
+  seed_base_ = s.seed_base;
+  inject_next_ = s.inject_next;
+  injected_ = s.injected;
+  removed_ = s.removed;
+  migrated_ = s.migrated;
+}
+
+}  // namespace granflow::ndam
