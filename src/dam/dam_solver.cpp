@@ -468,7 +468,15 @@ std::array<double, 2> DamSolver::sample(double x) const {
   std::vector<double> ph(static_cast<std::size_t>(n + 2 * G)), phu(ph.size());
   std::copy(h_.begin(), h_.end(), ph.begin() + G);
   std::copy(hu_.begin(), hu_.end(), phu.begin() + G);
-  fill_ghosts(ph, phu, n, staggered_, t_);
+  // Zero-gradient ghosts (not the boundary conditions): a coupled neighbour's ghosts call
+  // sample(), so sampling must not call back into the neighbour. The end cells therefore have
+  // zero slope, which is also what a one-sided limiter gives at an interface.
+  for (int g = 1; g <= G; ++g) {
+    ph[static_cast<std::size_t>(G - g)] = ph[G];
+    phu[static_cast<std::size_t>(G - g)] = phu[G];
+    ph[static_cast<std::size_t>(n + G - 1 + g)] = ph[static_cast<std::size_t>(n + G - 1)];
+    phu[static_cast<std::size_t>(n + G - 1 + g)] = phu[static_cast<std::size_t>(n + G - 1)];
+  }
   auto at = [](int j) { return static_cast<std::size_t>(j + G); };
   const double off = staggered_ ? 0.0 : 0.5;  // centre of cell j: x0 + (j + off) dx
   int j = static_cast<int>(std::floor((x - x0_) / dx_ - off + 0.5));

@@ -1,0 +1,215 @@
+#include "granflow/coupling/coupled_model.hpp"
+
+#include "granflow/io/fields.hpp"
+#include "granflow/params/parameters.hpp"
+
+#include <Teuchos_StandardParameterEntryValidators.hpp>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <limits>
+#include <sstream>
+
+namespace granflow::coupling {
+
+// ---------------------------------------------------------------------------------------------
+// Decomposition parameters
+// ---------------------------------------------------------------------------------------------
+Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
+  static Teuchos::RCP<const Teuchos::ParameterList> valid = [] {
+    using namespace params;
+    auto pl = Teuchos::rcp(new Teuchos::ParameterList("Decomposition"));
+    add_enum(*pl, "Layout", "Static",
+             "Static: the subdomains of 'Models' split at 'Interfaces'; A priori: a DAM run of "
+             "the whole scene first computes eps = 1/Fr^2 and the model is 2D wherever "
+             "eps >= 'Shallowness threshold' (plus 'Margin'), 1D elsewhere (paper section 4.1)",
+             {"Static", "A priori"});
+    auto kinds = Teuchos::rcp(new Teuchos::StringValidator(Teuchos::tuple<std::string>("1D", "2D")));
+    pl->set("Models", Teuchos::Array<std::string>(Teuchos::tuple<std::string>("2D", "1D", "2D")),
+            "model of each subdomain from upstream to downstream: 1D (DAM) or 2D (N-DAM); one "
+            "more entry than 'Interfaces' (Static layout)",
+            Teuchos::rcp(new Teuchos::ArrayStringValidator(kinds)));
+    auto pos = Teuchos::rcp(new Teuchos::EnhancedNumberValidator<double>(0.0, 1e6));
+    pl->set("Interfaces", Teuchos::Array<double>(Teuchos::tuple<double>(0.2, 0.7)),
+            "[m] interior interface positions, strictly increasing inside (0, L) (Static layout); "
+            "the paper's Setup I/II layout is {0.2, 0.7}",
+            Teuchos::rcp(new Teuchos::ArrayNumberValidator<double>(pos)));
+    add_double(*pl, "Shallowness threshold", 0.1,
+               "A priori layout: 2D wherever eps = 1/Fr^2 reaches this at any output time of the "
+               "DAM run (the paper's minimum requirement at an interface is eps < 0.1)",
+               1e-6, 1e6);
+    add_double(*pl, "Margin", 0.05,
+               "[m] A priori layout: each 2D region is widened by this on both sides (the paper: "
+               "'somewhat greater than suggested by the one-dimensional simulation')",
+               0.0, 1e6);
+    add_double(*pl, "Minimum length", 0.05,
+               "[m] A priori layout: shorter 1D gaps and end pieces become 2D", 0.0, 1e6);
+    return pl;
+  }();
+  return valid;
+}
+
+Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
+                                             const core::Channel& channel) {
+  Decomposition d;
+  d.layout = pl.get<std::string>("Layout");
+  const auto models = pl.get<Teuchos::Array<std::string>>("Models");
+  const auto ifs = pl.get<Teuchos::Array<double>>("Interfaces");
+  d.models.assign(models.begin(), models.end());
+  d.interfaces.assign(ifs.begin(), ifs.end());
+  d.eps_threshold = pl.get<double>("Shallowness threshold");
+  d.margin = pl.get<double>("Margin");
+  d.min_length = pl.get<double>("Minimum length");
+  if (d.layout == "Static") {
+    if (d.models.size() != d.interfaces.size() + 1)
+      params::fail(pl, "Models", Teuchos::toString(models),
+                   "needs exactly one entry more than 'Interfaces' = " + Teuchos::toString(ifs) +
+                       " (one model per subdomain)");
+    double prev = 0.0;
+    for (double x : d.interfaces) {
+      if (!(x > prev) || !(x < channel.length))
+        params::fail(pl, "Interfaces", Teuchos::toString(ifs),
+                     "positions must increase strictly inside (0, L = " +
+                         params::str(channel.length) + ")");
+      prev = x;
+    }
+    if (channel.left.type == core::BoundaryType::Periodic && d.models.size() > 1)
+      params::fail(pl, "Models", Teuchos::toString(models),
+                   "a periodic channel cannot be split into subdomains; allowed: one subdomain");
+  }
+  return d;
+}
+
+std::array<double, 2> Decomposition::extent(std::size_t i, double length) const {
+  const double a = i == 0 ? 0.0 : interfaces[i - 1];
+  const double b = i == interfaces.size() ? length : interfaces[i];
+  return {a, b};
+}
+
+// ---------------------------------------------------------------------------------------------
+// CoupledModel
+// ---------------------------------------------------------------------------------------------
+CoupledModel::CoupledModel(std::vector<Subdomain> parts)
+    : parts_(std::move(parts)), iface_mass_(parts_.empty() ? 0 : parts_.size() - 1, {0.0, 0.0}) {
+  if (parts_.empty()) throw std::invalid_argument("CoupledModel: no subdomains");
+}
+
+double CoupledModel::stable_dt() const {
+  double dt = std::numeric_limits<double>::infinity();
+  for (const auto& p : parts_) dt = std::min(dt, p.model->stable_dt());
+  return dt;
+}
+
+void CoupledModel::step(double dt) {
+  // Every subdomain steps from the states at t: the interface callbacks read neighbours that
+  // have not accepted their new state yet.
+  for (auto& p : parts_) p.model->step(dt);
+}
+
+core::Health CoupledModel::check() const {
+  for (const auto& p : parts_) {
+    auto h = p.model->check();
+    if (!h.ok) {
+      h.reason += " (in the " + p.kind + " subdomain [" + params::str(p.x0) + ", " +
+                  params::str(p.x1) + "] m)";
+      return h;
+    }
+  }
+  return {};
+}
+
+void CoupledModel::accept() {
+  for (auto& p : parts_) p.model->accept();
+  for (std::size_t i = 0; i + 1 < parts_.size(); ++i) {
+    iface_mass_[i][0] += parts_[i].last_transfer()[1];
+    iface_mass_[i][1] += parts_[i + 1].last_transfer()[0];
+  }
+  ++steps_;
+}
+
+core::Profile CoupledModel::profile() const {
+  core::Profile out;
+  for (const auto& p : parts_) {
+    const auto q = p.model->profile();
+    for (std::size_t k = 0; k < q.x.size(); ++k)
+      out.append(q.x[k], q.h[k], q.u_mean[k], q.eps[k], q.model[k]);
+  }
+  return out;
+}
+
+core::MassBalance CoupledModel::mass_balance() const {
+  // Totals over the subdomains; what crosses an interior interface leaves one subdomain and
+  // enters the next, so any mismatch of the two sides shows up in the defect.
+  core::MassBalance m;
+  for (const auto& p : parts_) {
+    const auto q = p.model->mass_balance();
+    m.initial += q.initial;
+    m.current += q.current;
+  }
+  m.inflow = parts_.front().model->mass_balance().inflow;
+  m.outflow = parts_.back().model->mass_balance().outflow;
+  return m;
+}
+
+void CoupledModel::write_fields(io::FieldWriter& w) const {
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    io::FieldWriter part;
+    parts_[i].model->write_fields(part);
+    for (const auto& m : part.meshes()) {
+      auto& copy = w.add_mesh(m.name + "_" + std::to_string(i), m.x_nodes, m.z_nodes);
+      copy.cell_fields = m.cell_fields;
+    }
+  }
+}
+
+void CoupledModel::save(io::Checkpoint& c) const {
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    io::Checkpoint part;
+    parts_[i].model->save(part);
+    const std::string pre = "part" + std::to_string(i) + "/";
+    for (const auto& [k, v] : part.scalars()) c.set(pre + k, v);
+    for (const auto& [k, v] : part.arrays()) c.set(pre + k, v);
+  }
+  c.set("coupled/steps", static_cast<double>(steps_));
+  for (std::size_t i = 0; i < iface_mass_.size(); ++i)
+    c.set("coupled/interface" + std::to_string(i),
+          std::vector<double>{iface_mass_[i][0], iface_mass_[i][1]});
+}
+
+void CoupledModel::load(const io::Checkpoint& c) {
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    io::Checkpoint part;
+    const std::string pre = "part" + std::to_string(i) + "/";
+    for (const auto& [k, v] : c.scalars())
+      if (k.rfind(pre, 0) == 0) part.set(k.substr(pre.size()), v);
+    for (const auto& [k, v] : c.arrays())
+      if (k.rfind(pre, 0) == 0) part.set(k.substr(pre.size()), v);
+    parts_[i].model->load(part);
+  }
+  steps_ = static_cast<long>(c.scalar("coupled/steps"));
+  for (std::size_t i = 0; i < iface_mass_.size(); ++i) {
+    const auto& v = c.array("coupled/interface" + std::to_string(i));
+    iface_mass_[i] = {v.at(0), v.at(1)};
+  }
+}
+
+void CoupledModel::report(nlohmann::json& s) const {
+  nlohmann::json parts = nlohmann::json::array(), ifaces = nlohmann::json::array();
+  for (const auto& p : parts_) {
+    nlohmann::json q = nlohmann::json::object();
+    p.model->report(q);
+    const auto mb = p.model->mass_balance();
+    parts.push_back({{"model", p.kind}, {"x0", p.x0}, {"x1", p.x1}, {"statistics", q},
+                     {"mass", mb.current}, {"mass_defect", mb.defect()}});
+  }
+  for (std::size_t i = 0; i < iface_mass_.size(); ++i)
+    ifaces.push_back({{"x", parts_[i].x1},
+                      {"upstream", parts_[i].kind},
+                      {"downstream", parts_[i + 1].kind},
+                      {"mass_out_of_upstream", iface_mass_[i][0]},
+                      {"mass_into_downstream", iface_mass_[i][1]},
+                      {"mismatch", iface_mass_[i][1] - iface_mass_[i][0]}});
+  s["coupled"] = {{"subdomains", parts}, {"interfaces", ifaces}, {"steps", steps_}};
+}
+
+}  // namespace granflow::coupling

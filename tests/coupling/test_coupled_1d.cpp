@@ -1,0 +1,118 @@
+// The coupled model's machinery with 1D subdomains only: a one-piece "decomposition" is the
+// plain DAM bit for bit, and Setup II split into three DAM subdomains (the paper's interface
+// positions 0.2 and 0.7 m) reproduces the single-channel run, with the mass through each
+// interface tracked from both sides.
+#include "granflow/coupling/build.hpp"
+#include "granflow/dam/dam_solver.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+using namespace granflow;
+
+namespace {
+struct SetupII {
+  core::Material m;
+  core::Channel c;
+  dam::DamConfig cfg;
+  SetupII() {
+    c.length = 1.0;
+    c.slope_deg = 50.0;
+    c.left.type = core::BoundaryType::Inflow;
+    c.left.inflow = core::InflowSeries(0.06, 0.37);
+    c.right.type = core::BoundaryType::Wall;
+    cfg.cells = 200;
+  }
+};
+
+void dry(dam::DamSolver& d) {
+  d.set_state([](double) { return 0.0; }, [](double) { return 0.0; });
+}
+
+void run(core::Stepper& s, double t_end) {
+  while (s.time() < t_end - 1e-12) {
+    s.step(std::min(s.stable_dt(), t_end - s.time()));
+    ASSERT_TRUE(s.check().ok);
+    s.accept();
+  }
+}
+}  // namespace
+
+TEST(Coupled1D, OneSubdomainIsThePlainDamBitForBit) {
+  SetupII s;
+  coupling::Decomposition d;
+  d.models = {"1D"};
+  d.interfaces = {};
+  auto coupled = coupling::build(d, s.m, s.c, s.cfg, dry);
+  dam::DamSolver plain(0.0, 1.0, s.cfg, dam::DamPhysics::from(s.m, s.c, s.cfg),
+                       dam::DamBoundary::from(s.c.left), dam::DamBoundary::from(s.c.right));
+  dry(plain);
+  run(*coupled, 0.6);
+  run(plain, 0.6);
+  const auto a = coupled->profile(), b = plain.profile();
+  ASSERT_EQ(a.h.size(), b.h.size());
+  for (std::size_t i = 0; i < a.h.size(); ++i) {
+    EXPECT_EQ(a.h[i], b.h[i]);  // same operations in the same order: identical doubles
+    EXPECT_EQ(a.u_mean[i], b.u_mean[i]);
+  }
+}
+
+TEST(Coupled1D, ThreeSubdomainsReproduceTheSingleChannelAndTrackInterfaceMass) {
+  SetupII s;
+  coupling::Decomposition d;
+  d.models = {"1D", "1D", "1D"};
+  d.interfaces = {0.2, 0.7};
+  auto coupled = coupling::build(d, s.m, s.c, s.cfg, dry);
+  dam::DamSolver plain(0.0, 1.0, s.cfg, dam::DamPhysics::from(s.m, s.c, s.cfg),
+                       dam::DamBoundary::from(s.c.left), dam::DamBoundary::from(s.c.right));
+  dry(plain);
+  run(*coupled, 0.75);
+  run(plain, 0.75);
+  const auto a = coupled->profile(), b = plain.profile();
+  ASSERT_EQ(a.h.size(), b.h.size());
+  // Supercritical part (x < 0.9 m, upstream of the shock) and the deposit separately: a shift
+  // of the shock by one cell would dominate any norm over the whole channel.
+  double num = 0, den = 0, dep_a = 0, dep_b = 0;
+  for (std::size_t i = 0; i < a.h.size(); ++i) {
+    if (b.x[i] > 0.9) {
+      dep_a += a.h[i];
+      dep_b += b.h[i];
+      continue;
+    }
+    num += (a.h[i] - b.h[i]) * (a.h[i] - b.h[i]);
+    den += b.h[i] * b.h[i];
+  }
+  auto shock = [](const core::Profile& p) {  // steepest depth increase
+    std::size_t k = 1;
+    for (std::size_t i = 1; i < p.h.size(); ++i)
+      if (p.h[i] - p.h[i - 1] > p.h[k] - p.h[k - 1]) k = i;
+    return p.x[k];
+  };
+  const double dx = 1.0 / s.cfg.cells;
+  dep_a *= dx;
+  dep_b *= dx;
+  const auto mb = coupled->mass_balance();
+  const auto i0 = coupled->interface_mass(0), i1 = coupled->interface_mass(1);
+  std::printf("[measured] 1D/1D/1D vs single DAM, Setup II t = 0.75 s, 200 cells: L2 rel h "
+              "(x < 0.9 m) %.2e; deposit (x > 0.9 m) %.6f / %.6f m^2; shock at %.4f / %.4f m; interface "
+              "0.2 m out/in %.6f/%.6f, 0.7 m %.6f/%.6f m^2; defect %.2e m^2 of %.4f\n",
+              std::sqrt(num / den), dep_a, dep_b, shock(a), shock(b), i0[0], i0[1],
+              i1[0], i1[1], mb.defect(), mb.current);
+  // The interfaces sit in smooth supercritical flow; the overlapping exchange differs from the
+  // single grid only in how the ghosts are filled (neighbour's reconstruction at time t, also
+  // for the half step), a perturbation of the size of the Minmod steady-state noise (~2 % in hu
+  // pointwise, see the DAM tests). Measured 0.4 % in L2; asserted 1 %.
+  EXPECT_LT(std::sqrt(num / den), 1e-2);
+  // Deposit (its mass; single cells oscillate, see the Savage-Hutter deposit finding) within
+  // 2 % and the shock within one cell.
+  EXPECT_NEAR(dep_a, dep_b, 2e-2 * dep_b);
+  EXPECT_LE(std::abs(shock(a) - shock(b)), dx + 1e-12);
+  // Mass through an interface seen from the two sides: the two DAMs evaluate the flux across
+  // x_IF from different reconstructions, so they agree to discretisation accuracy only; both
+  // sides are recorded and the total defect is their mismatch. Measured ~1e-3 relative.
+  EXPECT_NEAR(i0[1], i0[0], 5e-3 * i0[0]);
+  EXPECT_NEAR(i1[1], i1[0], 5e-3 * i1[0]);
+  EXPECT_NEAR(mb.defect(), (i0[1] - i0[0]) + (i1[1] - i1[0]), 1e-14);
+}
