@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <memory>
 
 using namespace granflow;
 
@@ -24,6 +25,14 @@ struct SetupII {
     c.left.inflow = core::InflowSeries(0.06, 0.37);
     c.right.type = core::BoundaryType::Wall;
     cfg.cells = 200;
+  }
+  /// The single-channel DAM of the same scene, dry at t = 0.
+  std::unique_ptr<dam::DamSolver> plain() const {
+    auto d = std::make_unique<dam::DamSolver>(0.0, c.length, cfg, dam::DamPhysics::from(m, c, cfg),
+                                              dam::DamBoundary::from(c.left),
+                                              dam::DamBoundary::from(c.right));
+    d->set_state([](double) { return 0.0; }, [](double) { return 0.0; });
+    return d;
   }
 };
 
@@ -46,12 +55,10 @@ TEST(Coupled1D, OneSubdomainIsThePlainDamBitForBit) {
   d.models = {"1D"};
   d.interfaces = {};
   auto coupled = coupling::build(d, s.m, s.c, s.cfg, dry);
-  dam::DamSolver plain(0.0, 1.0, s.cfg, dam::DamPhysics::from(s.m, s.c, s.cfg),
-                       dam::DamBoundary::from(s.c.left), dam::DamBoundary::from(s.c.right));
-  dry(plain);
+  auto plain = s.plain();
   run(*coupled, 0.6);
-  run(plain, 0.6);
-  const auto a = coupled->profile(), b = plain.profile();
+  run(*plain, 0.6);
+  const auto a = coupled->profile(), b = plain->profile();
   ASSERT_EQ(a.h.size(), b.h.size());
   for (std::size_t i = 0; i < a.h.size(); ++i) {
     EXPECT_EQ(a.h[i], b.h[i]);  // same operations in the same order: identical doubles
@@ -65,12 +72,10 @@ TEST(Coupled1D, ThreeSubdomainsReproduceTheSingleChannelAndTrackInterfaceMass) {
   d.models = {"1D", "1D", "1D"};
   d.interfaces = {0.2, 0.7};
   auto coupled = coupling::build(d, s.m, s.c, s.cfg, dry);
-  dam::DamSolver plain(0.0, 1.0, s.cfg, dam::DamPhysics::from(s.m, s.c, s.cfg),
-                       dam::DamBoundary::from(s.c.left), dam::DamBoundary::from(s.c.right));
-  dry(plain);
+  auto plain = s.plain();
   run(*coupled, 0.75);
-  run(plain, 0.75);
-  const auto a = coupled->profile(), b = plain.profile();
+  run(*plain, 0.75);
+  const auto a = coupled->profile(), b = plain->profile();
   ASSERT_EQ(a.h.size(), b.h.size());
   // Supercritical part (x < 0.9 m, upstream of the shock) and the deposit separately: a shift
   // of the shock by one cell would dominate any norm over the whole channel.
