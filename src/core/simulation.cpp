@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <mpi.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -122,22 +123,34 @@ std::string fmt_seconds(double s) {
   else os.precision(2), os << s / 3600 << " h";
   return os.str();
 }
+
+// Under mpiexec every rank runs this driver (the models' output calls gather over the ranks and
+// are collective), but only rank 0 touches the run directory's files and the progress line.
+bool io_rank() {
+  int init = 0;
+  MPI_Initialized(&init);
+  if (!init) return true;
+  int rank = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  return rank == 0;
+}
 }  // namespace
 
 void Simulation::write_output() {
   const auto t1 = Clock::now();
   const double t = model_->time();
-  io_->profiles.write(t, model_->profile());
+  const auto profile = model_->profile();
+  if (io_rank()) io_->profiles.write(t, profile);
   if (rc_.fields) {
     io::FieldWriter w;
     model_->write_fields(w);
-    io_->fields.write(t, w);
+    if (io_rank()) io_->fields.write(t, w);
   }
   if (rc_.checkpoint) {
     io::Checkpoint c;
     c.set("run/time", t);
     model_->save(c);
-    io::write_checkpoint(rc_.directory + "/checkpoint.h5", c);
+    if (io_rank()) io::write_checkpoint(rc_.directory + "/checkpoint.h5", c);
   }
   ++outputs_;
   last_output_t_ = t;
@@ -182,12 +195,13 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
                          {"x_last", p.x.back()}}}}});
   s["interfaces"] = {{"positions_over_time", layout}, {"moves", 0}};
   s["outputs"] = {{"snapshots", outputs_}, {"directory", rc_.directory}};
+  if (!io_rank()) return;
   std::ofstream f(rc_.directory + "/summary.json");
   f << s.dump(2) << "\n";
 }
 
 void Simulation::show_progress(bool final) {
-  if (!rc_.progress) return;
+  if (!rc_.progress || !io_rank()) return;
   const auto now = Clock::now();
   const bool tty = isatty(fileno(stderr));
   const double since = std::chrono::duration<double>(now - last_progress_).count();
@@ -215,8 +229,10 @@ int Simulation::run() {
     model_->load(c);
   }
   t0_ = model_->time();
-  io_->profiles.open(rc_.directory, restart);
-  if (rc_.fields) io_->fields.open(rc_.directory, restart);
+  if (io_rank()) {
+    io_->profiles.open(rc_.directory, restart);
+    if (rc_.fields) io_->fields.open(rc_.directory, restart);
+  }
   if (!restart) write_output();
 
   // The time loop:  dt = min(stable dt, output and end times);  step;  check;  accept.

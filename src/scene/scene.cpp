@@ -8,6 +8,8 @@
 #include "granflow/core/simulation.hpp"
 #include "granflow/dam/dam_solver.hpp"
 #include "granflow/dam/initial_condition.hpp"
+#include "granflow/ndam/ndam_solver.hpp"
+#include "granflow/ndam/rheology.hpp"
 #include "granflow/params/parameters.hpp"
 
 #include <filesystem>
@@ -19,7 +21,7 @@ using Teuchos::ParameterList;
 using Teuchos::RCP;
 
 const std::vector<std::string>& model_names() {
-  static const std::vector<std::string> names{"DAM"};
+  static const std::vector<std::string> names{"DAM", "N-DAM"};
   return names;
 }
 
@@ -28,7 +30,8 @@ void add_scene_header(ParameterList& pl, const std::string& model) {
   params::add_string(pl, "Name", "unnamed", "scene name, echoed in summary.json");
   params::add_string(pl, "Description", "", "free text: what the scene reproduces");
   params::add_enum(pl, "Model", model,
-                   "which model runs the scene: DAM (1D depth-averaged, paper section 3)",
+                   "which model runs the scene: DAM (1D depth-averaged, paper section 3), "
+                   "N-DAM (full 2D, paper section 2)",
                    model_names());
 }
 void add(ParameterList& pl, const RCP<const ParameterList>& sub, const std::string& doc) {
@@ -47,6 +50,10 @@ RCP<const ParameterList> valid_parameters(const std::string& model) {
     add(*pl, dam::DamConfig::getValidParameters(), "depth-averaged model numerics");
     add(*pl, dam::InitialCondition::getValidParameters(), "initial state of the channel");
   }
+  if (model == "N-DAM") {
+    add(*pl, ndam::NdamConfig::getValidParameters(), "full 2D model numerics and boundaries");
+    add(*pl, ndam::Rheology::getValidParameters(), "viscoplastic rheology of the 2D model");
+  }
   return pl;
 }
 
@@ -61,7 +68,7 @@ Scene load(const std::string& file) {
   if (user->isParameter("Model")) {
     if (!user->isType<std::string>("Model"))
       throw params::InputError(file + ": parameter 'granflow->Model' must be a string; allowed: " +
-                               std::string("DAM"));
+                               std::string("DAM, N-DAM"));
     model = user->get<std::string>("Model");
     const auto& names = model_names();
     if (std::find(names.begin(), names.end(), model) == names.end()) {
@@ -112,6 +119,20 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
                                      : nullptr;
       dam::InitialCondition::apply(p.sublist("Initial condition"), uic, channel, *dam);
       return dam;
+    }
+    if (s.model == "N-DAM") {
+      // The 2D model runs on the communicator of the run (the app's GlobalMPISession).
+      int ranks = 1;
+      MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+      auto user_sub = [&](const char* n) {
+        return s.user->isSublist(n) ? &s.user->sublist(n) : nullptr;
+      };
+      const auto cfg =
+          ndam::NdamConfig::from_parameters(p.sublist("N-DAM"), user_sub("N-DAM"), channel, ranks);
+      const auto rheo =
+          ndam::Rheology::from_parameters(p.sublist("Rheology"), user_sub("Rheology"), material);
+      return std::make_unique<ndam::NdamSolver>(MPI_COMM_WORLD, cfg, rheo,
+                                                ndam::NdamPhysics::from(material, channel));
     }
   } catch (const params::InputError& e) {
     throw params::InputError(s.file + ": " + e.what());

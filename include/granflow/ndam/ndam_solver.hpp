@@ -1,0 +1,251 @@
+#pragma once
+// N-DAM: the full two-dimensional incompressible viscoplastic model (Domnik et al. 2013,
+// section 2) on a closed or x-periodic box [0, Lx] x [0, Lz]:
+//
+//   div u = 0,                                                              (1)
+//   du/dt = div(sigma) + g,  sigma = -p 1 + 2 nu_eff D,  g = (g sin zeta, -g cos zeta),   (2, 3)
+//   nu_eff from the Rheology module (eqs. 4-6).
+//
+// One time step is the projection method of NaSt2D in incremental form (docs/numerics.md):
+//   predict_velocity   u* = u^n + dt (-(u.grad)u + g - grad p^n + div(2 nu_eff D(u)))
+//                      the viscous stress explicit (u^n) or implicit (u*, nu_eff lagged at t^n);
+//   solve_pressure     -L phi = -div(u*) / dt  (L: 5-point Laplacian with Neumann walls);
+//   correct_velocity   u^{n+1} = u* - dt grad phi,  p^{n+1} = p^n + phi (- 2 nu_eff div u* when
+//                      implicit: the rotational form, see docs/numerics.md).
+// The pressure at t = 0 solves eq. (10) with the Neumann condition (14), so a fluid at rest
+// starts in hydrostatic balance.
+//
+// The free surface (marker particles, surface/empty cells), the Coulomb sliding law (11)-(13)
+// and the nonlinear pressure system (tau_p != 0 inside F, solved with NOX) come with the next
+// issue; here tau_y uses the lagged pressure p^n.
+#include "granflow/core/channel.hpp"
+#include "granflow/core/material.hpp"
+#include "granflow/core/stepper.hpp"
+#include "granflow/ndam/grid.hpp"
+#include "granflow/ndam/markers.hpp"
+#include "granflow/ndam/rheology.hpp"
+#include "granflow/solvers/linear_system.hpp"
+
+#include <mpi.h>
+
+#include <Teuchos_ParameterList.hpp>
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace granflow::ndam {
+
+enum class Momentum { Explicit, Implicit };
+enum class Side : int { Left = 0, Right = 1, Bottom = 2, Top = 3 };
+/// Coulomb: the sliding law (11)-(13) with c_F = tan(delta) (1 - exp(-m_c |u_t|)) (Bottom and
+/// Right only; delta = 0 is free slip).
+enum class WallKind { NoSlip, FreeSlip, MovingLid, Periodic, Coulomb };
+/// Velocity profile over the opening of the silo gate (free-surface chute, left side).
+///  Uniform: u = u_in over 0 <= z < h_in (plug flow out of the silo; the documented default).
+///  CopyInterior: the shape of the first interior 2D column u(0, z) scaled to the mean u_in
+///                (eq. 25, d/dx d/dz u = 0; used by the 2D side of a 1D-to-2D interface).
+enum class InflowShape { Uniform, CopyInterior };
+
+/// Boundary condition of one side of the box. `velocity` is the tangential wall velocity of a
+/// moving lid (u on bottom/top, w on left/right).
+struct Wall {
+  WallKind kind = WallKind::NoSlip;
+  double velocity = 0.0;
+};
+
+/// Numerical parameters of the N-DAM ("N-DAM" sublist).
+struct NdamConfig {
+  Grid grid{64, 32, 1.0, 0.15};
+  Momentum momentum = Momentum::Implicit;
+  double cfl = 0.5;
+  double gamma = 0.5;  ///< donor-cell weight of the convective terms (0: central, 1: upwind)
+  std::array<Wall, 4> walls{};  ///< by Side
+  /// Obstacle rectangles {x0, x1, z0, z1} [m]: cells whose centre lies inside are obstacles
+  /// (rigid, no-slip surfaces).
+  std::vector<std::array<double, 4>> obstacles;
+  Teuchos::ParameterList momentum_solver, pressure_solver;
+
+  // --- free-surface chute (issue 4) ----------------------------------------------------------
+  /// Material tracked by markers: cells with markers are Fluid/Surface, the others Empty (p = 0).
+  bool free_surface = false;
+  int markers_per_cell = 4;  ///< n_x = n_z of the marker sub-lattice
+  /// Initial layer z < initial_depth on initial_x0 <= x < initial_x1 (0: no initial material).
+  double initial_depth = 0.0, initial_x0 = 0.0, initial_x1 = 1e300;
+  /// Silo gate at x = x0 (left side): {h_in, u_in} at time t; empty function: no inflow.
+  std::function<std::array<double, 2>(double t)> inflow;
+  InflowShape inflow_shape = InflowShape::Uniform;
+  /// Left side of the 2D box with the pressure of eq. (26) imposed on the inflow column.
+  bool inflow_pressure = false;
+  double inflow_K = 1.0;  ///< earth pressure coefficient K of eq. (26)
+  bool outflow_right = false;  ///< open outflow at x = x0 + L (else the Right wall)
+  double m_c = 100.0;  ///< [s/m] regularisation of the Coulomb friction factor (12)
+  double x0 = 0.0;     ///< grid origin along the slope [m] (2D subdomains of the coupled model)
+
+  bool periodic_x() const { return walls[0].kind == WallKind::Periodic; }
+  static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
+  /// Reads a validated "N-DAM" list. `user` is the list as written (or null); the box length
+  /// is the Channel's; `ranks` is checked against the columns (each rank needs >= 2 columns).
+  static NdamConfig from_parameters(const Teuchos::ParameterList& validated,
+                                    const Teuchos::ParameterList* user,
+                                    const core::Channel& channel, int ranks);
+};
+
+/// Physical constants the N-DAM uses (passed, never global).
+struct NdamPhysics {
+  double gx = 0.0;    ///< g sin(zeta)
+  double gz = -9.81;  ///< -g cos(zeta)
+  double density = 1440.0;
+  double tan_delta = 0.0;  ///< tan of the bed friction angle (Coulomb walls)
+  static NdamPhysics from(const core::Material& m, const core::Channel& c);
+};
+
+class NdamSolver final : public core::Stepper {
+ public:
+  /// Builds the grid slab of this rank on `comm` (collective) with the fluid at rest and the
+  /// pressure of eq. (10) (hydrostatic).
+  NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo, const NdamPhysics& phys);
+  ~NdamSolver() override;
+
+  // Stepper
+  std::string model_name() const override { return "N-DAM"; }
+  double time() const override { return t_; }
+  long steps() const override { return steps_; }
+  double stable_dt() const override;
+  void step(double dt) override;
+  core::Health check() const override;
+  void accept() override;
+  core::Profile profile() const override;
+  core::MassBalance mass_balance() const override;
+  void write_fields(io::FieldWriter& w) const override;
+  void save(io::Checkpoint& c) const override;
+  void load(const io::Checkpoint& c) override;
+  void report(nlohmann::json& stats) const override;
+
+  // Inspection (tests, benchmark, the coupling of the next issue).
+  const Grid& grid() const { return cfg_.grid; }
+  const Slab& slab() const { return slab_; }
+  const NdamConfig& config() const { return cfg_; }
+  /// Global fields gathered on every rank, index gi * nz + k: u on the right face of cell
+  /// (gi, k), w on its top face, p and nu_eff at its centre.
+  std::vector<double> gather_u() const;
+  std::vector<double> gather_w() const;
+  std::vector<double> gather_p() const;
+  std::vector<double> gather_nu() const;
+  /// max |div u| over the cells of the current state [1/s].
+  double max_divergence() const;
+  /// Statistics of the last step's linear solves (momentum is empty when explicit).
+  const solvers::SolveStats& last_momentum_solve() const { return mom_stats_; }
+  const solvers::SolveStats& last_pressure_solve() const { return p_stats_; }
+  /// Cell flag of global cell (gi, k).
+  CellFlag flag(int gi, int k) const {
+    return flags_[static_cast<std::size_t>(gi * cfg_.grid.nz + k)];
+  }
+  /// Largest nu_eff of the current state [m^2/s].
+  double max_nu_eff() const;
+  // --- free-surface chute and coupling API ---------------------------------------------------
+  struct ColumnState {
+    double h = 0.0, u_mean = 0.0;
+  };
+  /// {h, u_mean} (eq. 21, from the markers) of the column containing the slope coordinate x
+  /// (x clamped into the box; the grid origin is config().x0). Rank-local, no communication:
+  /// the column states are gathered on every rank at each accept().
+  ColumnState column_state(double x) const;
+  /// Replaces the inflow of the left side after construction: {h, u_mean} at time t, the
+  /// profile shape, and whether the inflow column gets the pressure of eq. (26).
+  void set_inflow(std::function<std::array<double, 2>(double t)> provider, InflowShape shape,
+                  bool impose_pressure = false, double K = 1.0);
+  struct Transfer {
+    double in = 0.0, out = 0.0;  ///< marker area [m^2] that entered at x0 / left at x1
+  };
+  /// Mass (area per unit width) through the two ends during the last accepted step.
+  Transfer last_transfer() const { return transfer_; }
+  const MarkerSet* markers() const { return markers_.get(); }
+  /// Seconds spent in the last step's phases: "momentum", "pressure", "other".
+  double last_seconds(const std::string& phase) const;
+
+ private:
+  struct Ref;  // a velocity sample as a linear function of the unknowns (see ndam_solver.cpp)
+  enum Comp { U = 0, W = 1 };
+  Ref u_ref(int i, int k) const;
+  Ref w_ref(int i, int k) const;
+  Ref ref(Comp c, int i, int k) const;
+  Ref surface_face_ref(Comp c, int i, int k) const;
+  long long p_gid(int gi, int k) const { return static_cast<long long>(gi) * cfg_.grid.nz + k; }
+  bool fluid(int gi, int k) const;  // material cell (Fluid or Surface); false outside
+  bool p_unknown(int gi, int k) const;  // pressure unknown: Fluid (Surface/Empty: Dirichlet)
+  CellFlag gflag(int gi, int k) const;  // flag of global cell; Obstacle outside the box
+  void assemble_pressure();
+  void update_flags_from_markers();
+  void surface_pressure(Field& target) const;
+  void apply_free_surface(Field& u, Field& w) const;
+  void boundary_faces(Field& u, Field& w) const;
+  double inflow_face(int k) const;  // u(-1, k) of the gate (flux-equivalent for partial faces)
+  void update_profile_cache();
+  bool u_unknown(int i, int k) const;  // u(i,k) an unknown: fluid on both sides, not a wall
+  bool w_unknown(int i, int k) const;
+  double nu_corner(int i, int k) const;
+  template <class Emit> void viscous_u(int i, int k, Emit&& e) const;
+  template <class Emit> void viscous_w(int i, int k, Emit&& e) const;
+  double conv_u(int i, int k) const;
+  double conv_w(int i, int k) const;
+
+  void exchange(Field& f) const;
+  void fill_velocity_ghosts(Field& u, Field& w) const;
+  void fill_scalar_ghosts(Field& s) const;
+  void update_viscosity();
+  void update_friction();
+  void predict_velocity(double dt, Field& us, Field& ws);
+  void solve_pressure(double dt, const Field& us, const Field& ws, Field& phi);
+  void correct_velocity(double dt, const Field& phi, Field& us, Field& ws) const;
+  void normalise_pressure(Field& p) const;
+  void initial_pressure();
+  double divergence(const Field& u, const Field& w, int i, int k) const;
+  std::vector<double> gather_cells(const Field& f, bool z_major) const;
+  std::vector<double> gather_columns(const std::vector<double>& local) const;
+  void scatter_cells(const std::vector<double>& global, Field& f) const;
+
+  MPI_Comm comm_;
+  NdamConfig cfg_;
+  Rheology rheo_;
+  NdamPhysics phys_;
+  Slab slab_;
+  int left_ = 0, right_ = 0;  // neighbour ranks (MPI_PROC_NULL at walls)
+
+  Field u_, w_, p_, nu_;        // current state (ghosts filled)
+  Field u_new_, w_new_, p_new_;  // tentative state of step()
+  Field u_star_, w_star_;        // u* of the last step (rotational pressure update)
+  std::vector<CellFlag> flags_;  // all cells of the box (every rank), gi * nz + k
+  std::vector<std::uint8_t> empty_mask_;  // empty_side bits of Surface cells (global)
+  std::unique_ptr<MarkerSet> markers_;
+  Field normD_;                  // ||D|| of the cells (free surface: surface stress)
+  Field p_dir_;                  // Dirichlet phi of non-unknown cells in solve_pressure
+  std::vector<double> bed_a_;    // Coulomb ghost factor of u(i,-1), local columns + G
+  std::vector<double> wall_a_;   // Coulomb ghost factor of w(nx, k) at the right wall
+  std::array<double, 2> inflow_now_{0.0, 0.0};  // {h_in, u_in} of the current step
+  std::vector<double> col_h_, col_u_, col_w_;  // column states of the whole box (every rank)
+  Transfer transfer_;
+  double mass0_ = 0.0;
+  MarkerMass marker_mass_;  // of the current state (collective mass() cached at accept)
+  double sec_mark_ = 0.0;
+  bool flags_changed_ = true;
+  bool has_obstacles_ = false;
+  long long pin_ = 0;        // pressure cell pinned to phi = 0 (the first fluid cell)
+  long long fluid_cells_ = 0;
+  double t_ = 0.0, t_new_ = 0.0;
+  long steps_ = 0;
+
+  std::unique_ptr<solvers::LinearSystem> pressure_, momentum_;
+  double momentum_dt_ = -1.0;  // dt of the assembled momentum matrix (reused when unchanged)
+  solvers::SolveStats mom_stats_, p_stats_;
+  double sec_mom_ = 0, sec_p_ = 0, sec_other_ = 0;
+
+  // statistics for summary.json
+  double dt_min_ = 0.0, dt_max_ = 0.0, max_div_ = 0.0, max_div_new_ = 0.0;
+  long long p_iters_ = 0, m_iters_ = 0, p_solves_ = 0, m_solves_ = 0, failed_solves_ = 0;
+  double worst_p_res_ = 0.0, worst_m_res_ = 0.0;
+};
+
+}  // namespace granflow::ndam

@@ -1,0 +1,87 @@
+#pragma once
+// The Trilinos layer of granflow: a distributed sparse linear system A x = b on Tpetra, solved by
+// a Belos Krylov method with a MueLu (smoothed aggregation AMG) or Ifpack2 preconditioner.
+//
+// This header is the whole interface the models see: no Tpetra, Belos, MueLu or Ifpack2 type
+// appears here (pimpl), so a change to a model recompiles no solver header. A model assembles
+// the locally owned rows from (row, col, value) triplets in global numbering, calls end(), then
+// solve() as often as it likes; the preconditioner is rebuilt only after the next end().
+//
+// Rows are distributed in contiguous blocks: this rank owns global rows
+// [first_row, first_row + local_rows). All calls are collective over the communicator.
+#include <mpi.h>
+
+#include <Teuchos_ParameterList.hpp>
+#include <Teuchos_RCP.hpp>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace granflow::solvers {
+
+/// What one solve did (reported in summary.json and by the benchmark).
+struct SolveStats {
+  int iterations = 0;
+  double residual = 0.0;    ///< achieved relative residual ||b - A x|| / ||b||
+  bool converged = false;
+  double setup_seconds = 0.0;  ///< preconditioner setup in this call (0 if reused)
+  double solve_seconds = 0.0;  ///< Krylov iterations
+};
+
+/// Tpetra's (and Kokkos') initialisation for a main: holds a Tpetra::ScopeGuard. Create it
+/// after Teuchos::GlobalMPISession (MPI is then left to the session) and before any
+/// LinearSystem; it finalises Kokkos when it goes out of scope.
+class Session {
+ public:
+  Session(int* argc, char*** argv);
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+class LinearSystem {
+ public:
+  /// `params` is a validated list of the form of getValidParameters() (Solver, Preconditioner,
+  /// Tolerance, Max iterations, and the pass-through sublists "MueLu" and "Ifpack2").
+  LinearSystem(MPI_Comm comm, long long global_rows, long long first_row, int local_rows,
+               const Teuchos::ParameterList& params);
+  ~LinearSystem();
+  LinearSystem(const LinearSystem&) = delete;
+  LinearSystem& operator=(const LinearSystem&) = delete;
+
+  /// Start a new assembly (the previous matrix is discarded).
+  void begin();
+  /// Add v to A(row, col); row must be locally owned; duplicates are summed.
+  void add(long long row, long long col, double v);
+  /// Finish the assembly (collective); the preconditioner is rebuilt at the next solve.
+  void end();
+  /// Solve A x = b for the local parts of b and x; x holds the initial guess on entry.
+  SolveStats solve(const std::vector<double>& b, std::vector<double>& x);
+
+  long long global_rows() const;
+  int local_rows() const;
+  /// Totals since construction.
+  long long total_iterations() const { return total_iterations_; }
+  long long solves() const { return solves_; }
+
+  /// Valid list of one linear solver: `name` is the list's name, `solver` and `preconditioner`
+  /// the defaults ("CG" for symmetric positive definite systems).
+  static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters(
+      const std::string& name, const std::string& solver, const std::string& preconditioner,
+      double tolerance);
+  /// Checks that cannot be expressed by validators (e.g. MueLu's direct coarse solver on more
+  /// than one rank); throws params::InputError naming the parameter.
+  static void check(const Teuchos::ParameterList& params, int ranks);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  long long total_iterations_ = 0, solves_ = 0;
+};
+
+}  // namespace granflow::solvers

@@ -1,0 +1,252 @@
+// N-DAM parameters: grid, momentum treatment, CFL and donor-cell weight, boundary condition per
+// side, and the two linear solvers (Belos + preconditioner settings passed through).
+#include "granflow/ndam/ndam_solver.hpp"
+
+#include "granflow/params/parameters.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace granflow::ndam {
+
+namespace {
+const std::vector<std::string> kWallKinds{"No-slip", "Free-slip", "Moving lid", "Periodic",
+                                          "Coulomb"};
+const char* kSideNames[4] = {"Left", "Right", "Bottom", "Top"};
+
+WallKind parse_wall(const std::string& s) {
+  if (s == "No-slip") return WallKind::NoSlip;
+  if (s == "Free-slip") return WallKind::FreeSlip;
+  if (s == "Moving lid") return WallKind::MovingLid;
+  if (s == "Coulomb") return WallKind::Coulomb;
+  return WallKind::Periodic;
+}
+}  // namespace
+
+Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
+  static Teuchos::RCP<const Teuchos::ParameterList> valid = [] {
+    using namespace params;
+    auto pl = Teuchos::rcp(new Teuchos::ParameterList("N-DAM"));
+    const NdamConfig d;
+    add_int(*pl, "Cells x", d.grid.nx,
+            "cells along the slope on [0, L] (L = Channel->Length); each MPI rank needs at "
+            "least 2 columns",
+            2, 100000);
+    add_int(*pl, "Cells z", d.grid.nz, "cells normal to the slope on [0, Height]", 2, 100000);
+    add_double(*pl, "Height", d.grid.lz,
+               "Lz [m]: height of the box normal to the slope. The paper leaves the domain height "
+               "open; 0.15 m holds the 0.11 m deposit of its Setup II",
+               1e-6, 1e6);
+    add_enum(*pl, "Momentum", "Implicit",
+             "Explicit: the paper's scheme, viscous stress at t^n (dt also limited by the "
+             "viscous condition); Implicit: viscous stress at t^{n+1} with nu_eff lagged, "
+             "solved with Belos (dt from the advective CFL condition alone; the default for "
+             "stiff, viscoplastic scenes)",
+             {"Explicit", "Implicit"});
+    add_double(*pl, "CFL", d.cfl,
+               "safety factor tau of the time step dt = tau min(dx/|u|max, dz/|w|max) (and, "
+               "explicit only, tau / (4 nu_eff,max (1/dx^2 + 1/dz^2)))",
+               1e-4, 1.0);
+    add_double(*pl, "Donor-cell weight", d.gamma,
+               "gamma: blend of the convective terms between central differences (0) and "
+               "donor-cell upwinding (1), NaSt2D's form; stability needs gamma >= "
+               "max(|u| dt/dx, |w| dt/dz), i.e. gamma >= CFL",
+               0.0, 1.0);
+    add_string(*pl, "Obstacles", "",
+               "rigid obstacles inside the box as rectangles 'x0 x1 z0 z1' [m], separated by "
+               "';' (e.g. '0.4 0.6 0 0.05; 0.8 0.9 0 0.1'): cells whose centre lies inside are "
+               "obstacle cells with no-slip surfaces. Empty: none. The fluid cells must form "
+               "one connected region");
+    auto& b = pl->sublist("Boundaries", false,
+                          "boundary condition of each side of the box [0, L] x [0, Height]");
+    for (const char* s : kSideNames) {
+      const std::string side(s);
+      const bool z_side = side == "Bottom" || side == "Top";
+      add_enum(b, side, side == "Top" ? "Free-slip" : "No-slip",
+               side + " side: No-slip wall, Free-slip wall, Moving lid (no-slip wall moving "
+                      "tangentially with '" + side + " lid velocity'), Periodic (Left and "
+                      "Right together only), or Coulomb (Bottom and Right only: the sliding law "
+                      "(11)-(13) with delta = Material->Bed friction angle and 'Friction "
+                      "regularisation' m_c)",
+               kWallKinds);
+      add_double(b, side + " lid velocity", 0.0,
+                 std::string("[m/s] tangential velocity of a Moving lid on this side (") +
+                     (z_side ? "u, along x" : "w, along z") + ")",
+                 -1e6, 1e6);
+    }
+    add_bool(*pl, "Free surface", false,
+             "track the material by marker particles (paper section 2.3): cells with markers "
+             "are Fluid/Surface, the others Empty (p = 0); needed for a chute with Channel "
+             "inflow/outflow. false: the box is full (cavity, rest tests)");
+    add_int(*pl, "Markers per cell", d.markers_per_cell,
+            "markers per cell along x and along z (n x n per cell) of the free surface", 1, 16);
+    add_double(*pl, "Initial depth", 0.0,
+               "[m] free surface: material layer z < depth at t = 0 on [Initial x0, Initial x1) "
+               "(0: the chute starts empty)",
+               0.0, 1e6);
+    add_double(*pl, "Initial x0", 0.0, "[m] start of the initial layer along the slope", -1e6,
+               1e6);
+    add_double(*pl, "Initial x1", 1e30, "[m] end of the initial layer along the slope", -1e6,
+               1e30);
+    add_double(*pl, "Friction regularisation", d.m_c,
+               "m_c [s/m] of the Coulomb friction factor c_F = tan(delta) (1 - exp(-m_c |u_b|)) "
+               "(eq. 12): friction is fully mobilised above a sliding speed of a few 1/m_c. "
+               "The paper leaves m_c open; 100 s/m (1/m_c = 1 cm/s, well below the chute's "
+               "0.4-3 m/s) is the default",
+               1e-6, 1e9);
+    pl->set("Momentum solver",
+            *solvers::LinearSystem::getValidParameters("N-DAM->Momentum solver", "CG", "MueLu",
+                                                       1e-10),
+            "Belos solver of the implicit viscous stress (symmetric positive definite: CG). "
+            "MueLu treats u and w as two equations per node ('number of equations' = 2)");
+    pl->set("Pressure solver",
+            *solvers::LinearSystem::getValidParameters("N-DAM->Pressure solver", "CG", "MueLu",
+                                                       1e-10),
+            "Belos solver of the pressure Poisson equation (symmetric positive definite: CG)");
+    return pl;
+  }();
+  return valid;
+}
+
+NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
+                                       const Teuchos::ParameterList* user,
+                                       const core::Channel& channel, int ranks) {
+  NdamConfig c;
+  c.grid.nx = pl.get<int>("Cells x");
+  c.grid.nz = pl.get<int>("Cells z");
+  c.grid.lx = channel.length;
+  c.grid.lz = pl.get<double>("Height");
+  c.momentum = pl.get<std::string>("Momentum") == "Explicit" ? Momentum::Explicit
+                                                             : Momentum::Implicit;
+  c.cfl = pl.get<double>("CFL");
+  c.gamma = pl.get<double>("Donor-cell weight");
+  if (c.grid.nx < 2 * ranks)
+    params::fail(pl, "Cells x", Teuchos::toString(c.grid.nx),
+                 "too few columns for " + std::to_string(ranks) +
+                     " MPI ranks; allowed: >= 2 per rank (" + std::to_string(2 * ranks) + ")");
+
+  const auto& b = pl.sublist("Boundaries");
+  const Teuchos::ParameterList* ub =
+      user && user->isSublist("Boundaries") ? &user->sublist("Boundaries") : nullptr;
+  for (int s = 0; s < 4; ++s) {
+    const std::string side = kSideNames[s];
+    Wall w;
+    w.kind = parse_wall(b.get<std::string>(side));
+    w.velocity = b.get<double>(side + " lid velocity");
+    if (w.kind == WallKind::Periodic && s >= 2)
+      params::fail(b, side, "Periodic",
+                   "the box is periodic only along the slope; allowed on Bottom/Top: No-slip, "
+                   "Free-slip, Moving lid");
+    if (w.kind != WallKind::MovingLid && ub && ub->isParameter(side + " lid velocity"))
+      params::fail(b, side + " lid velocity", Teuchos::toString(w.velocity),
+                   "given for a side of type '" + b.get<std::string>(side) +
+                       "'; allowed only with " + side + " = Moving lid");
+    c.walls[static_cast<std::size_t>(s)] = w;
+  }
+  const bool pl_ = c.walls[0].kind == WallKind::Periodic, pr = c.walls[1].kind == WallKind::Periodic;
+  if (pl_ != pr)
+    params::fail(b, "Right", b.get<std::string>("Right"),
+                 "Periodic must be set on Left and Right together (Left is '" +
+                     b.get<std::string>("Left") + "'); allowed: Periodic on both or on neither");
+  c.free_surface = pl.get<bool>("Free surface");
+  c.markers_per_cell = pl.get<int>("Markers per cell");
+  c.initial_depth = pl.get<double>("Initial depth");
+  c.initial_x0 = pl.get<double>("Initial x0");
+  c.initial_x1 = pl.get<double>("Initial x1");
+  c.m_c = pl.get<double>("Friction regularisation");
+  for (int s : {0, 3})
+    if (c.walls[static_cast<std::size_t>(s)].kind == WallKind::Coulomb)
+      params::fail(b, kSideNames[s], "Coulomb",
+                   "the sliding law is applied on the bed and the end wall; allowed on " +
+                       std::string(kSideNames[s]) + ": No-slip, Free-slip, Moving lid" +
+                       (s == 0 ? ", Periodic" : ""));
+  if (c.initial_depth > 0.0 && !c.free_surface)
+    params::fail(pl, "Initial depth", Teuchos::toString(c.initial_depth),
+                 "an initial layer needs 'Free surface' = true; allowed: 0");
+  if (c.initial_depth >= c.grid.lz)
+    params::fail(pl, "Initial depth", Teuchos::toString(c.initial_depth),
+                 "the layer must leave empty cells below the top; allowed: < Height = " +
+                     Teuchos::toString(c.grid.lz));
+  // The channel ends: a full box needs Wall/Wall (or Periodic); the free-surface chute also
+  // takes the silo gate (Left Inflow, Channel->Left boundary depth and velocity) and an open
+  // outflow (Right Outflow), so 1D and 2D scenes of one setup read the same Channel.
+  const bool ch_periodic = channel.left.type == core::BoundaryType::Periodic;
+  if (c.free_surface && !ch_periodic) {
+    const bool lok = channel.left.type == core::BoundaryType::Wall ||
+                     channel.left.type == core::BoundaryType::Inflow;
+    const bool rok = channel.right.type == core::BoundaryType::Wall ||
+                     channel.right.type == core::BoundaryType::Outflow;
+    Teuchos::ParameterList where("Channel");
+    if (!lok || pl_)
+      params::fail(where.sublist("Left boundary"), "Type", core::to_string(channel.left.type),
+                   "the free-surface N-DAM chute; allowed: Inflow or Wall (with N-DAM "
+                   "Boundaries Left not Periodic)");
+    if (!rok)
+      params::fail(where.sublist("Right boundary"), "Type", core::to_string(channel.right.type),
+                   "the free-surface N-DAM chute; allowed: Outflow or Wall");
+    if (channel.left.type == core::BoundaryType::Inflow) {
+      const core::InflowSeries series = channel.left.inflow;
+      c.inflow = [series](double t) {
+        return std::array<double, 2>{series.depth(t), series.velocity(t)};
+      };
+      if (series.depth(0.0) >= c.grid.lz)
+        params::fail(where.sublist("Left boundary"), "Inflow depth",
+                     Teuchos::toString(series.depth(0.0)),
+                     "the gate opening must lie below the top of the 2D box; allowed: < "
+                     "N-DAM->Height = " + Teuchos::toString(c.grid.lz));
+    }
+    if (channel.right.type == core::BoundaryType::Outflow) {
+      c.outflow_right = true;
+      c.walls[1].kind = WallKind::FreeSlip;  // zero-gradient w at the open end
+    }
+  } else if (ch_periodic != pl_ ||
+             (!ch_periodic && (channel.left.type != core::BoundaryType::Wall ||
+                               channel.right.type != core::BoundaryType::Wall))) {
+    Teuchos::ParameterList where("Channel");
+    params::fail(where.sublist("Left boundary"), "Type", core::to_string(channel.left.type),
+                 std::string("the N-DAM box ") +
+                     (pl_ ? "is periodic along x, so both channel ends must be Periodic"
+                          : "is closed at x = 0 and x = L, so both channel ends must be Wall") +
+                     " (inflow and outflow come with the coupled model); allowed: " +
+                     (pl_ ? "Periodic" : "Wall"));
+  }
+  // Obstacles: "x0 x1 z0 z1; ..."
+  {
+    const std::string spec = pl.get<std::string>("Obstacles");
+    std::stringstream all(spec);
+    std::string item;
+    while (std::getline(all, item, ';')) {
+      if (item.find_first_not_of(" \t\n") == std::string::npos) continue;
+      std::istringstream is(item);
+      std::array<double, 4> r{};
+      std::string extra;
+      if (!(is >> r[0] >> r[1] >> r[2] >> r[3]) || (is >> extra))
+        params::fail(pl, "Obstacles", spec,
+                     "'" + item + "' is not four numbers 'x0 x1 z0 z1'; allowed: rectangles "
+                     "'x0 x1 z0 z1' separated by ';'");
+      if (!(r[0] < r[1] && r[2] < r[3]) || r[0] < 0 || r[1] > c.grid.lx || r[2] < 0 ||
+          r[3] > c.grid.lz)
+        params::fail(pl, "Obstacles", spec,
+                     "rectangle '" + item + "' is empty or leaves the box; allowed: 0 <= x0 < "
+                     "x1 <= L = " + Teuchos::toString(c.grid.lx) + ", 0 <= z0 < z1 <= Height = " +
+                     Teuchos::toString(c.grid.lz));
+      c.obstacles.push_back(r);
+    }
+  }
+  c.momentum_solver = pl.sublist("Momentum solver");
+  c.pressure_solver = pl.sublist("Pressure solver");
+  solvers::LinearSystem::check(c.momentum_solver, ranks);
+  solvers::LinearSystem::check(c.pressure_solver, ranks);
+  return c;
+}
+
+NdamPhysics NdamPhysics::from(const core::Material& m, const core::Channel& c) {
+  NdamPhysics p;
+  p.gx = c.g_sin(m.gravity);
+  p.gz = -c.g_cos(m.gravity);
+  p.density = m.density;
+  p.tan_delta = std::tan(core::deg2rad(m.bed_friction_deg));
+  return p;
+}
+
+}  // namespace granflow::ndam
