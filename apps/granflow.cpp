@@ -11,6 +11,7 @@
 #include <Teuchos_GlobalMPISession.hpp>
 
 #include <iostream>
+#include <sstream>
 #include <string>
 
 namespace {
@@ -35,32 +36,38 @@ int main(int argc, char** argv) {
   // 1. MPI: Debian's Trilinos is built on OpenMPI; the 2D solvers run on the run's communicator.
   Teuchos::GlobalMPISession mpi(&argc, &argv, nullptr);
 
+  // Messages go to the terminal from rank 0 only (every rank runs this main under mpiexec).
+  const bool root = mpi.getRank() == 0;
+  std::ostringstream sink;
+  std::ostream& out = root ? std::cout : sink;
+  std::ostream& err = root ? std::cerr : sink;
+
   // 2. Command line.
   std::string file;
   bool check_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
-      usage(std::cout);
+      usage(out);
       return core::kOk;
     } else if (a == "--parameters") {
-      std::cout << scene::parameter_reference();
+      out << scene::parameter_reference();
       return core::kOk;
     } else if (a == "--check") {
       check_only = true;
     } else if (!a.empty() && a[0] == '-') {
-      std::cerr << "granflow: unknown option '" << a << "'\n";
-      usage(std::cerr);
+      err << "granflow: unknown option '" << a << "'\n";
+      usage(err);
       return core::kUsage;
     } else if (file.empty()) {
       file = a;
     } else {
-      std::cerr << "granflow: more than one scene file given ('" << file << "', '" << a << "')\n";
+      err << "granflow: more than one scene file given ('" << file << "', '" << a << "')\n";
       return core::kUsage;
     }
   }
   if (file.empty()) {
-    usage(std::cerr);
+    usage(err);
     return core::kUsage;
   }
 
@@ -72,25 +79,25 @@ int main(int argc, char** argv) {
     const auto rc = core::RunControl::from_parameters(s.params->sublist("Time"),
                                                       s.params->sublist("Output"), s.dir);
     if (check_only) {
-      std::cout << file << ": valid scene '" << s.name << "' (model " << s.model << ")\n";
+      out << file << ": valid scene '" << s.name << "' (model " << s.model << ")\n";
       return core::kOk;
     }
-    std::cout << "granflow: scene '" << s.name << "', model " << s.model << ", to t = "
+    out << "granflow: scene '" << s.name << "', model " << s.model << ", to t = "
               << rc.end_time << " s, output in " << rc.directory << "\n";
     // 5. Run to the end time.
     core::Simulation sim(s.name, *s.params, std::move(model), rc);
     const int code = sim.run();
     const auto mb = sim.model().mass_balance();
-    std::cout << "granflow: " << (code == core::kOk ? "completed" : "stopped") << " at t = "
+    out << "granflow: " << (code == core::kOk ? "completed" : "stopped") << " at t = "
               << sim.model().time() << " s after " << sim.model().steps()
               << " steps; mass defect " << mb.defect() << " m^2 (initial " << mb.initial
               << ", final " << mb.current << ")\n";
     return code;
   } catch (const params::InputError& e) {
-    std::cerr << "granflow: invalid input: " << e.what() << "\n";
+    err << "granflow: invalid input: " << e.what() << "\n";
     return core::kInputError;
   } catch (const std::exception& e) {
-    std::cerr << "granflow: error: " << e.what() << "\n";
+    err << "granflow: error: " << e.what() << "\n";
     return core::kRuntimeError;
   }
 }

@@ -49,6 +49,14 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
   return valid;
 }
 
+namespace {
+std::string list(const std::vector<double>& v) {
+  std::string s;
+  for (double x : v) s += (s.empty() ? "" : ", ") + params::str(x);
+  return "{" + s + "}";
+}
+}  // namespace
+
 Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
                                              const core::Channel& channel) {
   Decomposition d;
@@ -63,12 +71,12 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   if (d.layout == "Static") {
     if (d.models.size() != d.interfaces.size() + 1)
       params::fail(pl, "Models", Teuchos::toString(models),
-                   "needs exactly one entry more than 'Interfaces' = " + Teuchos::toString(ifs) +
+                   "needs exactly one entry more than 'Interfaces' = " + list(d.interfaces) +
                        " (one model per subdomain)");
     double prev = 0.0;
     for (double x : d.interfaces) {
       if (!(x > prev) || !(x < channel.length))
-        params::fail(pl, "Interfaces", Teuchos::toString(ifs),
+        params::fail(pl, "Interfaces", list(d.interfaces),
                      "positions must increase strictly inside (0, L = " +
                          params::str(channel.length) + ")");
       prev = x;

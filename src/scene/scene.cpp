@@ -10,6 +10,7 @@
 #include "granflow/dam/initial_condition.hpp"
 #include "granflow/ndam/ndam_solver.hpp"
 #include "granflow/ndam/rheology.hpp"
+#include "granflow/coupling/build.hpp"
 #include "granflow/params/parameters.hpp"
 
 #include <filesystem>
@@ -21,7 +22,7 @@ using Teuchos::ParameterList;
 using Teuchos::RCP;
 
 const std::vector<std::string>& model_names() {
-  static const std::vector<std::string> names{"DAM", "N-DAM"};
+  static const std::vector<std::string> names{"DAM", "N-DAM", "Coupled"};
   return names;
 }
 
@@ -31,7 +32,8 @@ void add_scene_header(ParameterList& pl, const std::string& model) {
   params::add_string(pl, "Description", "", "free text: what the scene reproduces");
   params::add_enum(pl, "Model", model,
                    "which model runs the scene: DAM (1D depth-averaged, paper section 3), "
-                   "N-DAM (full 2D, paper section 2)",
+                   "N-DAM (full 2D, paper section 2), Coupled (subdomains along the channel, "
+                   "paper section 4; 1D subdomains now, 2D ones with the 2D chute model)",
                    model_names());
 }
 void add(ParameterList& pl, const RCP<const ParameterList>& sub, const std::string& doc) {
@@ -48,6 +50,13 @@ RCP<const ParameterList> valid_parameters(const std::string& model) {
   add(*pl, core::RunControl::getValidOutputParameters(), "run directory and output schedule");
   if (model == "DAM") {
     add(*pl, dam::DamConfig::getValidParameters(), "depth-averaged model numerics");
+    add(*pl, dam::InitialCondition::getValidParameters(), "initial state of the channel");
+  }
+  if (model == "Coupled") {
+    add(*pl, coupling::Decomposition::getValidParameters(),
+        "subdomains along the channel and their models");
+    add(*pl, dam::DamConfig::getValidParameters(),
+        "numerics of the 1D subdomains ('Cells' is for the whole channel: dx = L / Cells)");
     add(*pl, dam::InitialCondition::getValidParameters(), "initial state of the channel");
   }
   if (model == "N-DAM") {
@@ -108,15 +117,26 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
         p.sublist("Channel"),
         s.user->isSublist("Channel") ? s.user->sublist("Channel") : ParameterList("Channel"),
         s.dir);
+    const ParameterList* uic =
+        s.user->isSublist("Initial condition") ? &s.user->sublist("Initial condition") : nullptr;
+    if (s.model == "Coupled") {
+      const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));
+      auto d = coupling::Decomposition::from_parameters(p.sublist("Decomposition"), channel);
+      const auto init = [&](dam::DamSolver& dam) {
+        dam::InitialCondition::apply(p.sublist("Initial condition"), uic, channel, dam);
+      };
+      if (d.layout == "A priori")
+        d = coupling::a_priori_layout(d, material, channel, cfg, init,
+                                      p.sublist("Time").get<double>("End time"),
+                                      p.sublist("Output").get<double>("Interval"));
+      return coupling::build(d, material, channel, cfg, init);
+    }
     if (s.model == "DAM") {
       const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));
       const auto phys = dam::DamPhysics::from(material, channel, cfg);
       auto dam = std::make_unique<dam::DamSolver>(0.0, channel.length, cfg, phys,
                                                   dam::DamBoundary::from(channel.left),
                                                   dam::DamBoundary::from(channel.right));
-      const ParameterList* uic = s.user->isSublist("Initial condition")
-                                     ? &s.user->sublist("Initial condition")
-                                     : nullptr;
       dam::InitialCondition::apply(p.sublist("Initial condition"), uic, channel, *dam);
       return dam;
     }

@@ -48,3 +48,10 @@ add_test(NAME cli.parameters_doc_up_to_date
          COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> -DDOC=${PROJECT_SOURCE_DIR}/docs/parameters.md
                  -P ${_cli}/params_doc.cmake)
 set_tests_properties(cli.restart_reproduces_straight_run cli.parameters_doc_up_to_date PROPERTIES LABELS "cli")
+
+# coupled model: decomposition checks
+granflow_cli_test(coupled_2d_not_yet 2 "Decomposition->Models.*2D subdomain on \\[0, 0\\.2\\].*allowed now: 1D only"
+                  ${_cli}/bad_coupled_2d.xml)
+granflow_cli_test(coupled_count_mismatch 2 "Decomposition->Models.*one entry more than 'Interfaces'"
+                  ${_cli}/bad_coupled_count.xml)
+granflow_cli_test(coupled_bad_kind 2 "Models.*3D" ${_cli}/bad_coupled_kind.xml)

@@ -4,7 +4,7 @@ add_executable(test_ndam
   ${CMAKE_CURRENT_LIST_DIR}/ndam_main.cpp
   ${CMAKE_CURRENT_LIST_DIR}/test_ndam_verification.cpp
 )
-target_link_libraries(test_ndam PRIVATE granflow_ndam GTest::gtest granflow_warnings)
+target_link_libraries(test_ndam PRIVATE granflow_ndam granflow_scene GTest::gtest granflow_warnings)
 target_compile_definitions(test_ndam PRIVATE GRANFLOW_INPUTS="${PROJECT_SOURCE_DIR}/inputs")
 # The long cases (finer cavity grids, Re = 1000) are registered separately with the label `long`.
 gtest_discover_tests(test_ndam DISCOVERY_TIMEOUT 60 TEST_FILTER "-NdamCavityLong.*"
