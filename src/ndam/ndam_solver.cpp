@@ -246,7 +246,12 @@ bool NdamSolver::fluid(int gi, int k) const {
   return f == CellFlag::Fluid || f == CellFlag::Surface;
 }
 
-bool NdamSolver::p_unknown(int gi, int k) const { return gflag(gi, k) == CellFlag::Fluid; }
+bool NdamSolver::p_unknown(int gi, int k) const {
+  // With the pressure of eq. (26) imposed at a 1D-to-2D interface, the material cells of the
+  // inflow column are Dirichlet cells too.
+  if (cfg_.inflow_pressure && gi == 0 && !cfg_.periodic_x() && fluid(gi, k)) return false;
+  return gflag(gi, k) == CellFlag::Fluid;
+}
 
 // A face is an unknown when the cells on both sides are fluid; the faces at x = 0 and x = L
 // (non-periodic) and all faces touching an obstacle cell are fixed.
@@ -535,6 +540,7 @@ void NdamSolver::set_inflow(std::function<std::array<double, 2>(double t)> provi
   cfg_.inflow_pressure = impose_pressure;
   cfg_.inflow_K = K;
   inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
+  flags_changed_ = true;  // the Dirichlet cells of eq. (26) may have changed
   fill_velocity_ghosts(u_, w_);
 }
 
@@ -607,8 +613,13 @@ void NdamSolver::surface_pressure(Field& target) const {
       // nu_eff = nu). The cell's own nu_eff (with its centre pressure) would feed the lagged
       // yield stress back into the Dirichlet value: measured unstable on the periodic incline
       // (tau_y m_y D_nn is O(tau_y) noise in a plug where ||D|| -> 0).
+      // With the implicit momentum step the term is left out (p = 0 at the surface): lagged,
+      // it acts on the face below as an explicit viscous term of weight 2 nu dt / dz^2 and was
+      // measured unstable at nu dt / dz^2 > 0.5 (Newtonian layer, nu = 0.03, dz = 5 mm); the
+      // explicit scheme's viscous time-step limit covers it.
       const double nus = rheo_.nu_eff(normD_(i, k), 0.0);
-      target(i, k) = n > 0 ? 2.0 * nus * sum / n : 0.0;
+      const bool viscous_normal = cfg_.momentum == Momentum::Explicit;
+      target(i, k) = n > 0 && viscous_normal ? 2.0 * nus * sum / n : 0.0;
       // A cell whose top is empty holds the free surface at the column's marker depth z_s,
       // not at its centre: p = 0 belongs at z_s, so the cell centre gets the hydrostatic
       // increment g cos(zeta) (z_s - z_c) (z_s clamped into the cell). Without it the pressure
@@ -942,6 +953,15 @@ double NdamSolver::stable_dt() const {
     // dt <= 1 / (4 nu (1/dx^2 + 1/dz^2)) keeps it stable with the safety factor below.
     const double numax = max_nu_eff();
     if (numax > 0.0) dt = std::min(dt, 1.0 / (4.0 * numax * (1.0 / (dx * dx) + 1.0 / (dz * dz))));
+    // Coulomb friction, explicit: the bed face loses nu_b (1 - a) / dz^2 of its velocity per
+    // second (a: the Robin ghost factor), so forward Euler needs dt <= 1 / that rate.
+    double rate = 0.0;
+    for (int i = 0; i < slab_.nx_local && cfg_.walls[2].kind == WallKind::Coulomb; ++i) {
+      const double a = bed_a_[static_cast<std::size_t>(i + Field::G)];
+      rate = std::max(rate, 0.5 * (nu_(i, 0) + nu_(i + 1, 0)) * (1.0 - a) / (dz * dz));
+    }
+    rate = allreduce_max(rate, comm_);
+    if (rate > 0.0) dt = std::min(dt, 1.0 / rate);
   }
   dt *= cfg_.cfl;
   // Implicit and Newtonian: the momentum matrix depends on dt only, so a dt that stays within
@@ -1214,6 +1234,13 @@ void NdamSolver::step(double dt) {
       for (int k = 0; k < cfg_.grid.nz; ++k) {
         const CellFlag f = gflag(slab_.i0 + i, k);
         if (f == CellFlag::Surface || f == CellFlag::Empty) p_dir_(i, k) = ps(i, k) - p_(i, k);
+        if (cfg_.inflow_pressure && slab_.i0 + i == 0 && fluid(0, k)) {
+          // eq. (26): p = g cos(zeta) (h - z) (1 + K) / 2 with h the inflow depth
+          const double z = (k + 0.5) * cfg_.grid.dz();
+          const double p26 = std::abs(phys_.gz) * std::max(0.0, inflow_now_[0] - z) *
+                             (1.0 + cfg_.inflow_K) / 2.0;
+          p_dir_(i, k) = p26 - p_(i, k);
+        }
       }
     exchange(p_dir_);
     if (flags_changed_) {
@@ -1246,11 +1273,11 @@ void NdamSolver::step(double dt) {
   const double rot = cfg_.momentum == Momentum::Implicit ? 2.0 : 0.0;
   for (int i = 0; i < slab_.nx_local; ++i)
     for (int k = 0; k < cfg_.grid.nz; ++k) {
-      const CellFlag f = gflag(slab_.i0 + i, k);
-      if (f == CellFlag::Fluid)
+      if (p_unknown(slab_.i0 + i, k))
         p_new_(i, k) += phi(i, k) - rot * nu_(i, k) * divergence(u_star_, w_star_, i, k);
-      else if (f == CellFlag::Surface || f == CellFlag::Empty)
-        p_new_(i, k) += phi(i, k);  // = the Dirichlet value (normal stress; 0 when Empty)
+      else  // Dirichlet cells: phi is the increment to their value (surface normal stress,
+            // eq. 26 at an interface, 0 when Empty); obstacles: phi = 0
+        p_new_(i, k) += phi(i, k);
     }
   if (!cfg_.free_surface) normalise_pressure(p_new_);
   fill_scalar_ghosts(p_new_);
@@ -1517,6 +1544,37 @@ void NdamSolver::save(io::Checkpoint& c) const {
   c.set("ndam/u", gather_u());
   c.set("ndam/w", gather_w());
   c.set("ndam/p", gather_p());
+  if (markers_) {
+    // Free surface: all markers (gathered, sorted by id; an id is stored as two doubles, its
+    // high and low 31 bits, since injected ids start at 2^62, beyond a double's 53 bits), the
+    // injection accumulators of the gate (rank 0 owns column 0), the global counters, the
+    // initial marker area.
+    const auto all = markers_->gather();
+    std::vector<double> xs, zs, ids;
+    for (const auto& m : all) {
+      xs.push_back(m.x);
+      zs.push_back(m.z);
+      ids.push_back(static_cast<double>(m.id >> 31));
+      ids.push_back(static_cast<double>(m.id & ((1LL << 31) - 1)));
+    }
+    c.set("ndam/markers_x", xs);
+    c.set("ndam/markers_z", zs);
+    c.set("ndam/markers_id", ids);
+    std::vector<double> acc = markers_->inflow_accumulators();
+    int n = static_cast<int>(acc.size());
+    MPI_Bcast(&n, 1, MPI_INT, 0, comm_);
+    acc.resize(static_cast<std::size_t>(n));
+    MPI_Bcast(acc.data(), n, MPI_DOUBLE, 0, comm_);
+    c.set("ndam/markers_accumulators", acc);
+    const MarkerState st = markers_->save();
+    long long loc[2] = {st.inject_next, st.seed_base}, mx[2] = {0, 0};
+    MPI_Allreduce(loc, mx, 2, MPI_LONG_LONG, MPI_MAX, comm_);
+    c.set("ndam/markers_inject_next", static_cast<double>(mx[0]));
+    c.set("ndam/markers_seed_base", static_cast<double>(mx[1]));
+    c.set("ndam/markers_injected", static_cast<double>(marker_mass_.injected));
+    c.set("ndam/markers_removed", static_cast<double>(marker_mass_.removed));
+    c.set("ndam/mass0", mass0_);
+  }
 }
 
 void NdamSolver::load(const io::Checkpoint& c) {
@@ -1532,9 +1590,36 @@ void NdamSolver::load(const io::Checkpoint& c) {
   scatter_cells(c.array("ndam/u"), u_);
   scatter_cells(c.array("ndam/w"), w_);
   scatter_cells(c.array("ndam/p"), p_);
+  if (markers_) {
+    // This rank takes the markers of its columns; the gate's accumulators and the global
+    // counters go to rank 0 (MarkerSet::mass() sums the ranks' counters).
+    MarkerState st;
+    const auto& xs = c.array("ndam/markers_x");
+    const auto& zs = c.array("ndam/markers_z");
+    const auto& ids = c.array("ndam/markers_id");
+    const double dx = cfg_.grid.dx();
+    for (std::size_t q = 0; q < xs.size(); ++q) {
+      const int gi = std::clamp(static_cast<int>(std::floor(xs[q] / dx)), 0, cfg_.grid.nx - 1);
+      if (gi >= slab_.i0 && gi < slab_.i0 + slab_.nx_local)
+        st.markers.push_back(Marker{xs[q], zs[q],
+                                    (static_cast<long long>(ids[2 * q]) << 31) +
+                                        static_cast<long long>(ids[2 * q + 1])});
+    }
+    st.inflow_accumulators = c.array("ndam/markers_accumulators");
+    st.inject_next = static_cast<long long>(c.scalar("ndam/markers_inject_next"));
+    st.seed_base = static_cast<long long>(c.scalar("ndam/markers_seed_base"));
+    st.injected = slab_.rank == 0 ? static_cast<long long>(c.scalar("ndam/markers_injected")) : 0;
+    st.removed = slab_.rank == 0 ? static_cast<long long>(c.scalar("ndam/markers_removed")) : 0;
+    markers_->load(st);
+    mass0_ = c.scalar("ndam/mass0");
+    marker_mass_ = markers_->mass();
+    update_flags_from_markers();
+    if (cfg_.inflow) inflow_now_ = cfg_.inflow(t_);
+  }
   fill_velocity_ghosts(u_, w_);
   fill_scalar_ghosts(p_);
   update_viscosity();
+  if (markers_) update_profile_cache();
   u_new_ = u_;
   w_new_ = w_;
   p_new_ = p_;

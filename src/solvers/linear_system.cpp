@@ -22,6 +22,7 @@
 #include <BelosTpetraAdapter.hpp>
 #include <Ifpack2_Factory.hpp>
 #include <MueLu_CreateTpetraPreconditioner.hpp>
+#include <Teuchos_CommHelpers.hpp>
 #include <Teuchos_DefaultMpiComm.hpp>
 #include <Tpetra_Core.hpp>
 #include <Tpetra_CrsMatrix.hpp>
@@ -157,7 +158,14 @@ void LinearSystem::end() {
     }
     start[static_cast<size_t>(i) + 1] = cols.size();
   }
-  const bool same = !m.A.is_null() && start == m.row_start && cols == m.pattern;
+  // Collective decision: a pattern that changed on one rank only (e.g. the free-surface flags
+  // of one slab) must rebuild the graph and the preconditioner on every rank; a rank-local
+  // decision left one rank setting up MueLu while the other solved (deadlock, found with the
+  // N-DAM chute at np = 2).
+  const int same_local = !m.A.is_null() && start == m.row_start && cols == m.pattern ? 1 : 0;
+  int same_all = 0;
+  Teuchos::reduceAll<int, int>(*m.comm, Teuchos::REDUCE_MIN, same_local, Teuchos::outArg(same_all));
+  const bool same = same_all == 1;
   if (same) {
     // A new matrix on the old (static) graph: the old matrix stays intact for a lagged
     // preconditioner that still refers to it.

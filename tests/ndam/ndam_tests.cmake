@@ -36,3 +36,5 @@ add_test(NAME ndam.app_rest_slope_np2
 set_tests_properties(ndam.app_rest_slope_np2 PROPERTIES LABELS "ndam;mpi" TIMEOUT 120
                      PROCESSORS 2)
 
+# Free surface, Coulomb sliding, chute boundaries (issue 4).
+target_sources(test_ndam PRIVATE ${CMAKE_CURRENT_LIST_DIR}/test_ndam_chute.cpp)

@@ -15,9 +15,13 @@
 // The pressure at t = 0 solves eq. (10) with the Neumann condition (14), so a fluid at rest
 // starts in hydrostatic balance.
 //
-// The free surface (marker particles, surface/empty cells), the Coulomb sliding law (11)-(13)
-// and the nonlinear pressure system (tau_p != 0 inside F, solved with NOX) come with the next
-// issue; here tau_y uses the lagged pressure p^n.
+// With 'Free surface' (NdamConfig::free_surface) the box is a chute: the material is tracked by
+// marker particles (MarkerSet), cells are Fluid/Surface/Empty, momentum is solved on faces
+// between material cells, pressure unknowns are the Fluid cells (Surface: normal-stress
+// Dirichlet value, Empty: p = 0), the silo gate injects at x = x0 and an open end removes
+// markers. Walls of kind Coulomb apply the sliding law (11)-(13) as a Robin ghost value. See
+// docs/numerics.md, "2D granular chute". The nonlinear pressure system (tau_p != 0 inside F,
+// solved with NOX) is not implemented yet: tau_y uses the lagged pressure p^n.
 #include "granflow/core/channel.hpp"
 #include "granflow/core/material.hpp"
 #include "granflow/core/stepper.hpp"

@@ -1,0 +1,75 @@
+#pragma once
+// Helpers of the free-surface N-DAM tests: a solver with markers, Coulomb walls and the chute
+// ends built through the same validated parameter lists a scene uses.
+#include "ndam_test_util.hpp"
+
+namespace ndam_chute {
+
+using namespace granflow;
+
+struct FsCase {
+  int nx = 10, nz = 20;
+  double lx = 0.1, lz = 0.1;
+  double slope_deg = 50.0, phi_deg = 33.0, delta_deg = 22.0;
+  std::string rheology = "Drucker-Prager";
+  double nu = 0.003, m_y = 100.0, m_c = 100.0, yield = 0.0;
+  double depth = 0.05;
+  std::array<std::string, 4> walls{"Periodic", "Periodic", "Coulomb", "Free-slip"};
+  std::string left = "Periodic", right = "Periodic";  // Channel ends
+  double h_in = 0.06, u_in = 0.37;
+  std::string momentum = "Implicit";
+  double cfl = 0.5;
+};
+
+inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm = MPI_COMM_WORLD) {
+  int ranks = 1;
+  MPI_Comm_size(comm, &ranks);
+  Teuchos::ParameterList n("N-DAM");
+  n.set("Cells x", c.nx);
+  n.set("Cells z", c.nz);
+  n.set("Height", c.lz);
+  n.set("Momentum", c.momentum);
+  n.set("CFL", c.cfl);
+  n.set("Donor-cell weight", 0.5);
+  n.set("Free surface", true);
+  n.set("Initial depth", c.depth);
+  n.set("Friction regularisation", c.m_c);
+  auto& b = n.sublist("Boundaries");
+  const char* sides[4] = {"Left", "Right", "Bottom", "Top"};
+  for (int s = 0; s < 4; ++s) b.set(sides[s], c.walls[static_cast<std::size_t>(s)]);
+  for (const char* sv : {"Momentum solver", "Pressure solver"}) n.sublist(sv).set("Tolerance", 1e-10);
+  const Teuchos::ParameterList user = n;
+  params::validate_and_set_defaults(n, *ndam::NdamConfig::getValidParameters(), "test");
+
+  Teuchos::ParameterList chp("Channel");
+  chp.set("Length", c.lx);
+  chp.set("Slope angle", c.slope_deg);
+  chp.sublist("Left boundary").set("Type", c.left);
+  if (c.left == "Inflow") {
+    chp.sublist("Left boundary").set("Inflow depth", c.h_in);
+    chp.sublist("Left boundary").set("Inflow velocity", c.u_in);
+  }
+  chp.sublist("Right boundary").set("Type", c.right);
+  const Teuchos::ParameterList chuser = chp;
+  params::validate_and_set_defaults(chp, *core::Channel::getValidParameters(), "test");
+  const auto ch = core::Channel::from_parameters(chp, chuser, ".");
+  core::Material m;
+  m.gravity = 9.81;
+  m.internal_friction_deg = c.phi_deg;
+  m.bed_friction_deg = c.delta_deg;
+
+  Teuchos::ParameterList r("Rheology");
+  r.set("Model", c.rheology);
+  r.set("Viscosity", c.nu);
+  if (c.rheology != "Newtonian") {
+    r.set("Yield stress", c.yield);
+    r.set("Regularisation", c.m_y);
+  }
+  const Teuchos::ParameterList ruser = r;
+  params::validate_and_set_defaults(r, *ndam::Rheology::getValidParameters(), "test");
+  const auto cfg = ndam::NdamConfig::from_parameters(n, &user, ch, ranks);
+  const auto rheo = ndam::Rheology::from_parameters(r, &ruser, m);
+  return std::make_unique<ndam::NdamSolver>(comm, cfg, rheo, ndam::NdamPhysics::from(m, ch));
+}
+
+}  // namespace ndam_chute
