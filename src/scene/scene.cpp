@@ -58,6 +58,9 @@ RCP<const ParameterList> valid_parameters(const std::string& model) {
     add(*pl, dam::DamConfig::getValidParameters(),
         "numerics of the 1D subdomains ('Cells' is for the whole channel: dx = L / Cells)");
     add(*pl, dam::InitialCondition::getValidParameters(), "initial state of the channel");
+    add(*pl, ndam::NdamConfig::getValidParameters(),
+        "numerics of the 2D subdomains ('Free surface' true; cells for the whole channel)");
+    add(*pl, ndam::Rheology::getValidParameters(), "viscoplastic rheology of the 2D subdomains");
   }
   if (model == "N-DAM") {
     add(*pl, ndam::NdamConfig::getValidParameters(), "full 2D model numerics and boundaries");
@@ -129,7 +132,24 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
         d = coupling::a_priori_layout(d, material, channel, cfg, init,
                                       p.sublist("Time").get<double>("End time"),
                                       p.sublist("Output").get<double>("Interval"));
-      return coupling::build(d, material, channel, cfg, init);
+      const bool any_2d = std::find(d.models.begin(), d.models.end(), "2D") != d.models.end();
+      if (!any_2d) return coupling::build(d, material, channel, cfg, init);
+      int ranks = 1;
+      MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+      auto user_sub = [&](const char* n) {
+        return s.user->isSublist(n) ? &s.user->sublist(n) : nullptr;
+      };
+      coupling::TwoD two_d;
+      two_d.cfg = ndam::NdamConfig::from_parameters(p.sublist("N-DAM"), user_sub("N-DAM"),
+                                                    channel, ranks);
+      if (!two_d.cfg.free_surface)
+        params::fail(p.sublist("N-DAM"), "Free surface", "false",
+                     "2D subdomains of a coupled channel need the free-surface chute; allowed: "
+                     "true");
+      two_d.rheology =
+          ndam::Rheology::from_parameters(p.sublist("Rheology"), user_sub("Rheology"), material);
+      two_d.physics = ndam::NdamPhysics::from(material, channel);
+      return coupling::build(d, material, channel, cfg, init, &two_d);
     }
     if (s.model == "DAM") {
       const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));

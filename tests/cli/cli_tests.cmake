@@ -50,8 +50,16 @@ add_test(NAME cli.parameters_doc_up_to_date
 set_tests_properties(cli.restart_reproduces_straight_run cli.parameters_doc_up_to_date PROPERTIES LABELS "cli")
 
 # coupled model: decomposition checks
-granflow_cli_test(coupled_2d_not_yet 2 "Decomposition->Models.*2D subdomain on \\[0, 0\\.2\\].*allowed now: 1D only"
+# a 2D subdomain with the default (closed-box, no free surface) N-DAM cannot take the gate inflow
+granflow_cli_test(coupled_2d_without_free_surface 2 "Left boundary->Type' = Inflow.*closed at x = 0.*allowed: Wall"
                   ${_cli}/bad_coupled_2d.xml)
 granflow_cli_test(coupled_count_mismatch 2 "Decomposition->Models.*one entry more than 'Interfaces'"
                   ${_cli}/bad_coupled_count.xml)
 granflow_cli_test(coupled_bad_kind 2 "Models.*3D" ${_cli}/bad_coupled_kind.xml)
+
+# coupled 2D/1D/2D against full 2D (Setup II, coarse)
+add_test(NAME coupled.setup2_against_full_2d
+         COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> -DSTUDY=$<TARGET_FILE:granflow-study>
+                 -DSRC=${_cli} -P ${_cli}/coupled_check.cmake
+         WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+set_tests_properties(coupled.setup2_against_full_2d PROPERTIES LABELS "coupling" TIMEOUT 300)
