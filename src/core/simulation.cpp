@@ -185,14 +185,22 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   nlohmann::json stats = nlohmann::json::object();
   model_->report(stats);
   s["solver_statistics"] = stats;
-  // Layout of the models along the channel over time (static for a single-model run).
-  const auto p = model_->profile();
+  // Layout of the models along the channel (static interfaces: the same at every time). A
+  // coupled model reports its subdomains; a single model covers the channel.
+  nlohmann::json subdomains = nlohmann::json::array();
+  if (stats.contains("coupled")) {
+    for (const auto& p : stats["coupled"]["subdomains"])
+      subdomains.push_back({{"model", p["model"]}, {"x0", p["x0"]}, {"x1", p["x1"]}});
+  } else {
+    const auto p = model_->profile();
+    if (p.x.size() > 1) {  // cell centres -> channel ends
+      const double half = 0.5 * (p.x[1] - p.x[0]);
+      subdomains.push_back(
+          {{"model", p.model.front()}, {"x0", p.x.front() - half}, {"x1", p.x.back() + half}});
+    }
+  }
   nlohmann::json layout = nlohmann::json::array();
-  if (!p.x.empty())
-    layout.push_back({{"t", t0_},
-                      {"subdomains",
-                       {{{"model", p.model.front()}, {"x_first", p.x.front()},
-                         {"x_last", p.x.back()}}}}});
+  layout.push_back({{"t", t0_}, {"subdomains", subdomains}});
   s["interfaces"] = {{"positions_over_time", layout}, {"moves", 0}};
   s["outputs"] = {{"snapshots", outputs_}, {"directory", rc_.directory}};
   if (!io_rank()) return;
