@@ -1350,6 +1350,9 @@ core::Health NdamSolver::check() const {
 }
 
 void NdamSolver::accept() {
+  total_mom_ += sec_mom_;
+  total_p_ += sec_p_;
+  total_other_ += sec_other_;
   std::swap(u_, u_new_);
   std::swap(w_, w_new_);
   std::swap(p_, p_new_);
@@ -1383,6 +1386,7 @@ void NdamSolver::accept() {
     fill_velocity_ghosts(u_, w_);
     update_profile_cache();
     sec_mark_ = seconds_since(tm);
+    total_mark_ += sec_mark_;
   }
   u_new_ = u_;
   w_new_ = w_;
@@ -1655,6 +1659,13 @@ void NdamSolver::report(nlohmann::json& s) const {
     s["ndam"]["marker_area"] = marker_mass_.area;
     s["ndam"]["seconds_markers_last_step"] = sec_mark_;
   }
+  // Wall time per phase over the accepted steps (this rank): momentum predictor, pressure
+  // solve, markers (advection, injection, flags), and the rest of the step (viscosity,
+  // correction, ghost exchange).
+  s["ndam"]["seconds"] = {{"momentum", total_mom_},
+                          {"pressure", total_p_},
+                          {"markers", total_mark_},
+                          {"other", total_other_}};
 }
 
 }  // namespace granflow::ndam

@@ -245,6 +245,8 @@ class NdamSolver final : public core::Stepper {
   double momentum_dt_ = -1.0;  // dt of the assembled momentum matrix (reused when unchanged)
   solvers::SolveStats mom_stats_, p_stats_;
   double sec_mom_ = 0, sec_p_ = 0, sec_other_ = 0;
+  // cumulative phase seconds of the accepted steps (summary.json)
+  double total_mom_ = 0, total_p_ = 0, total_other_ = 0, total_mark_ = 0;
 
   // statistics for summary.json
   double dt_min_ = 0.0, dt_max_ = 0.0, max_div_ = 0.0, max_div_new_ = 0.0;
