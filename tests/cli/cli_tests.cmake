@@ -2,8 +2,9 @@
 # parameter, the value and what is allowed. run_cli.cmake runs granflow and checks both.
 set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
 function(granflow_cli_test name expected_code regex)
+  string(REPLACE ";" " " _args "${ARGN}")  # one -DARGS value; run_cli.cmake splits it again
   add_test(NAME cli.${name}
-           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> -DARGS=${ARGN}
+           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> "-DARGS=${_args}"
                    -DEXPECTED_CODE=${expected_code} -DREGEX=${regex}
                    -P ${_cli}/run_cli.cmake
            WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
@@ -63,3 +64,10 @@ add_test(NAME coupled.setup2_against_full_2d
                  -DSRC=${_cli} -P ${_cli}/coupled_check.cmake
          WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
 set_tests_properties(coupled.setup2_against_full_2d PROPERTIES LABELS "coupling" TIMEOUT 300)
+
+# every shipped scene validates and builds its model (granflow --check)
+file(GLOB _scenes ${PROJECT_SOURCE_DIR}/inputs/*.xml)
+foreach(_s ${_scenes})
+  get_filename_component(_n ${_s} NAME_WE)
+  granflow_cli_test(scene_${_n} 0 "valid scene '${_n}'" --check ${_s})
+endforeach()
