@@ -30,6 +30,7 @@
 #include <NOX_Thyra.H>
 #include <NOX_Thyra_MatrixFreeJacobianOperator.hpp>
 #include <Stratimikos_DefaultLinearSolverBuilder.hpp>
+#include <Teuchos_oblackholestream.hpp>
 #include <Teuchos_DefaultMpiComm.hpp>
 #include <Thyra_DefaultPreconditioner.hpp>
 #include <Thyra_StateFuncModelEvaluatorBase.hpp>
@@ -504,10 +505,15 @@ NonlinearStats NonlinearSystem::solve(std::vector<double>& p) {
     // fault in Thyra::BelosLinearOpWithSolve::applyImpl, measured here).
     const auto glob = P.get<std::string>("Globalization");
     nl->set("Nonlinear Solver", "Line Search Based");
-    nl->sublist("Line Search")
-        .set("Method", glob == "Full step"                ? "Full Step"
-                       : glob == "Polynomial line search" ? "Polynomial"
-                                                          : "Backtrack");
+    auto& lsearch = nl->sublist("Line Search");
+    lsearch.set("Method", glob == "Full step"                ? "Full Step"
+                          : glob == "Polynomial line search" ? "Polynomial"
+                                                             : "Backtrack");
+    // A line search that finds no decrease ends the solve (NOX: 'Recovery Step' 0 makes the
+    // step fail) instead of taking NOX's default recovery step, a full Newton step that can
+    // raise ||F|| by orders of magnitude (measured on the N-DAM pressure system): the returned
+    // iterate is then the best one found.
+    for (const char* m : {"Backtrack", "Polynomial"}) lsearch.sublist(m).set("Recovery Step", 0.0);
     auto& dir = nl->sublist("Direction");
     dir.set("Method", "Newton");
     auto& newton = dir.sublist("Newton");
@@ -532,6 +538,10 @@ NonlinearStats NonlinearSystem::solve(std::vector<double>& p) {
       info += NOX::Utils::Warning + NOX::Utils::OuterIteration +
               NOX::Utils::OuterIterationStatusTest + NOX::Utils::LinearSolverDetails;
     pr.set("Output Information", info);
+    // NOX writes some messages (e.g. "line search failed") whatever the print level; without
+    // 'Verbose' they go nowhere: the outcome is reported through NonlinearStats::reason.
+    if (!P.get<bool>("Verbose"))
+      pr.set("Output Stream", Teuchos::RCP<std::ostream>(rcp(new Teuchos::oblackholestream)));
     RCP<NOX::Observer> observer = rcp(new HistoryObserver(&st.residual_history));
     nl->sublist("Solver Options").set("Observer", observer);
 
