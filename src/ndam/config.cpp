@@ -1,6 +1,7 @@
 // N-DAM parameters: grid, momentum treatment, CFL and donor-cell weight, boundary condition per
 // side, and the two linear solvers (Belos + preconditioner settings passed through).
 #include "granflow/ndam/ndam_solver.hpp"
+#include "granflow/solvers/nonlinear_system.hpp"
 
 #include "granflow/params/parameters.hpp"
 
@@ -103,6 +104,48 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
             *solvers::LinearSystem::getValidParameters("N-DAM->Pressure solver", "CG", "MueLu",
                                                        1e-10),
             "Belos solver of the pressure Poisson equation (symmetric positive definite: CG)");
+    add_enum(*pl, "Pressure coupling", "Lagged",
+             "how the pressure enters the yield stress tau_y = tau_c + tau_p p and the Coulomb "
+             "law (13): Lagged: at t^n (one predictor-projection per step); Nonlinear: at "
+             "t^{n+1}, the paper's nonlinear pressure system (10)+(13)+(14), solved in every "
+             "step by NOX (Jacobian-free Newton-Krylov on the fixed-point form q = P(q) of one "
+             "predictor-projection; 'Pressure Newton'). With tau_p = 0 and no Coulomb side the "
+             "system is linear and both are the same",
+             {"Lagged", "Nonlinear"});
+    // The Newton solver of the pressure system: NonlinearSystem's list with the defaults that
+    // suit the fixed-point form R(q) = (q - P(q)) / p_ref (p_ref: see docs/numerics.md). Its
+    // Jacobian I - dP/dq is the identity plus the yield-stress coupling, so no preconditioner is
+    // needed (the Poisson operator is already inverted inside P) and GMRES converges in a few
+    // iterations; Jacobian-free because P contains the momentum and pressure solves.
+    Teuchos::ParameterList nl = *solvers::NonlinearSystem::getValidParameters();
+    auto redefault = [&nl](const std::string& name, auto value) {
+      const auto& e = nl.getEntry(name);
+      const auto validator = e.validator();
+      const std::string doc = e.docString();
+      nl.set(name, value, doc, validator);
+    };
+    redefault("Method", std::string("Jacobian-free Newton-Krylov"));
+    redefault("Preconditioner", std::string("None"));
+    redefault("Absolute tolerance", 1e-5);
+    redefault("Relative tolerance", 1e-2);
+    redefault("Max Newton iterations", 10);
+    redefault("Krylov tolerance", 1e-2);
+    redefault("Max Krylov iterations", 50);
+    pl->set("Pressure Newton", nl,
+            "NOX solver of the nonlinear pressure system ('Pressure coupling' = Nonlinear). The "
+            "residual is R(q) = (q - P(q)) / (p_ref sqrt(N)), p_ref = g cos(zeta) Height, N the "
+            "cells of the box: ||R||_2 is the RMS pressure mismatch relative to the hydrostatic "
+            "pressure at the bottom of the box. A step whose Newton solve does not converge "
+            "stops the run with a diagnosis");
+    add_enum(*pl, "Pressure Newton failure", "Stop",
+             "what a step does whose nonlinear pressure solve does not reach its tolerance: "
+             "Stop: the run stops with a diagnosis (the last good output and checkpoint are "
+             "kept); Continue: the step keeps NOX's best iterate (smallest ||R|| found), prints a "
+             "warning once and counts such steps and their worst ||R|| in summary.json "
+             "(ndam.newton). Continue is for a reference run that meets a few cells where the "
+             "system has no nearby root (measured: the free surface at the end wall of Setup "
+             "II)",
+             {"Stop", "Continue"});
     return pl;
   }();
   return valid;
@@ -235,6 +278,20 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
   }
   c.momentum_solver = pl.sublist("Momentum solver");
   c.pressure_solver = pl.sublist("Pressure solver");
+  c.pressure_coupling = pl.get<std::string>("Pressure coupling") == "Nonlinear"
+                            ? PressureCoupling::Nonlinear
+                            : PressureCoupling::Lagged;
+  c.pressure_newton = pl.sublist("Pressure Newton");
+  c.newton_failure_continue = pl.get<std::string>("Pressure Newton failure") == "Continue";
+  if (c.pressure_newton.get<std::string>("Method") != "Jacobian-free Newton-Krylov")
+    params::fail(pl.sublist("Pressure Newton"), "Method", c.pressure_newton.get<std::string>("Method"),
+                 "the pressure system's residual contains the momentum and pressure solves, so "
+                 "its Jacobian is not assembled; allowed: Jacobian-free Newton-Krylov");
+  if (c.pressure_newton.get<std::string>("Preconditioner") != "None")
+    params::fail(pl.sublist("Pressure Newton"), "Preconditioner",
+                 c.pressure_newton.get<std::string>("Preconditioner"),
+                 "the fixed-point form of the pressure system has a Jacobian close to the "
+                 "identity and no assembled matrix to build a preconditioner from; allowed: None");
   solvers::LinearSystem::check(c.momentum_solver, ranks);
   solvers::LinearSystem::check(c.pressure_solver, ranks);
   return c;

@@ -29,6 +29,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -46,6 +47,11 @@ double allreduce_max(double v, MPI_Comm c) {
   double r = v;
   MPI_Allreduce(&v, &r, 1, MPI_DOUBLE, MPI_MAX, c);
   return r;
+}
+std::string gstr(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
 }
 double allreduce_sum(double v, MPI_Comm c) {
   double r = v;
@@ -155,10 +161,10 @@ NdamSolver::NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rhe
   wall_a_.assign(static_cast<std::size_t>(nz), 1.0);
   if (cfg_.inflow) inflow_now_ = cfg_.inflow(0.0);
   fill_velocity_ghosts(u_, w_);
-  update_viscosity();
+  update_viscosity(p_);
   initial_pressure();
   if (cfg_.free_surface) {
-    update_viscosity();  // Coulomb factors with the initial pressure
+    update_viscosity(p_);  // Coulomb factors with the initial pressure
     update_profile_cache();
   }
   u_new_ = u_;
@@ -728,10 +734,10 @@ NdamSolver::ColumnState NdamSolver::column_state(double x) const {
 // ---------------------------------------------------------------------------------------------
 // Rheology: nu_eff at cell centres from ||D|| and p (lagged: state at t^n)
 // ---------------------------------------------------------------------------------------------
-void NdamSolver::update_viscosity() {
+void NdamSolver::update_viscosity(const Field& p_yield) {
   if (rheo_.newtonian()) {
     nu_.fill(rheo_.nu);
-    update_friction();
+    update_friction(p_yield);
     return;
   }
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
@@ -748,7 +754,7 @@ void NdamSolver::update_viscosity() {
       const double d12 =
           0.125 * (shear(i, k) + shear(i - 1, k) + shear(i, k - 1) + shear(i - 1, k - 1));
       const double normD = std::sqrt(2.0 * (d11 * d11 + d22 * d22 + 2.0 * d12 * d12));
-      nu_(i, k) = rheo_.nu_eff(normD, p_(i, k));
+      nu_(i, k) = rheo_.nu_eff(normD, p_yield(i, k));
       if (cfg_.free_surface) normD_(i, k) = normD;
     }
   fill_scalar_ghosts(nu_);
@@ -771,7 +777,7 @@ void NdamSolver::update_viscosity() {
       }
     fill_scalar_ghosts(nu_);
   }
-  update_friction();
+  update_friction(p_yield);
 }
 
 // Coulomb sliding law (11)-(13) on the bed (and the end wall) as a Robin ghost value. At the
@@ -786,7 +792,7 @@ void NdamSolver::update_viscosity() {
 // a is clamped at -1 (no slip): regularised friction cannot hold more than sticking does.
 // delta = 0 gives a = 1: free slip. p at the bed: the mean of the material cells above the face
 // extrapolated hydrostatically by dz/2 (p_b = p_0 + g cos(zeta) dz / 2).
-void NdamSolver::update_friction() {
+void NdamSolver::update_friction(const Field& p_yield) {
   const int G = Field::G, nxl = slab_.nx_local, nz = cfg_.grid.nz;
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
   auto beta = [&](double ub) {
@@ -802,7 +808,7 @@ void NdamSolver::update_friction() {
       int n = 0;
       for (int c : {i, ir})
         if (fluid(gi + (c - i), 0)) {
-          pb += p_(c, 0);
+          pb += p_yield(c, 0);
           ++n;
         }
       if (n == 0) continue;
@@ -821,7 +827,7 @@ void NdamSolver::update_friction() {
       int n = 0;
       for (int kk : {k, k + 1})
         if (fluid(gi, kk)) {
-          pw += p_(i, kk);
+          pw += p_yield(i, kk);
           ++n;
         }
       if (n == 0) continue;
@@ -1223,7 +1229,12 @@ void NdamSolver::step(double dt) {
     inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
     fill_velocity_ghosts(u_, w_);
   }
-  update_viscosity();  // nu_eff(u^n, p^n), Coulomb ghost factors
+  update_viscosity(p_);  // nu_eff(u^n, p^n), Coulomb ghost factors
+  // The rotational pressure update is a splitting correction (it vanishes at a steady state),
+  // not part of eq. (10): it keeps nu_eff(u^n, p^n) in the nonlinear coupling too, where the
+  // trial pressure would otherwise enter through 2 nu_eff(q) div u*, a term that is large
+  // wherever the material is stopped (nu_eff ~ tau_p m_y q) and that made Newton stall.
+  nu_rot_ = nu_;
   if (cfg_.free_surface) {
     // Dirichlet values of the projection increment: Surface cells go to the normal-stress
     // value (surface_pressure), Empty cells stay at p = 0.
@@ -1249,17 +1260,39 @@ void NdamSolver::step(double dt) {
     }
   }
   sec_other_ = seconds_since(t0);
+  sec_mom_ = sec_p_ = 0.0;
+  newton_failed_ = false;
+  if (cfg_.pressure_coupling == PressureCoupling::Nonlinear && pressure_dependent())
+    solve_pressure_system(dt);  // tau_y and (13) at p^{n+1}
+  else
+    project(dt);  // tau_y and (13) at p^n (nu_eff and the friction factors from above)
+  const auto t3 = Clock::now();
+  // divergence of the tentative state, for check() and the statistics
+  double dmax = 0.0;
+  for (int i = 0; i < slab_.nx_local; ++i)
+    for (int k = 0; k < cfg_.grid.nz; ++k)
+      if (fluid(slab_.i0 + i, k))
+        dmax = std::max(dmax, std::abs(divergence(u_new_, w_new_, i, k)));
+  max_div_new_ = allreduce_max(dmax, comm_);
+  t_new_ = t_ + dt;
+  dt_min_ = steps_ == 0 ? dt : std::min(dt_min_, dt);
+  dt_max_ = std::max(dt_max_, dt);
+  sec_other_ += seconds_since(t3);
+}
+
+// One predictor-projection from the state at t^n with the current nu_eff and friction factors:
+// u*, phi, u^{n+1} = u* - dt G phi and p^{n+1} into u_new_, w_new_, p_new_. In the 'Nonlinear'
+// coupling this is the map P(q) whose fixed point is the new pressure.
+void NdamSolver::project(double dt) {
   const auto t1 = Clock::now();
   mom_stats_ = solvers::SolveStats{};
   predict_velocity(dt, u_new_, w_new_);
-  sec_mom_ = seconds_since(t1);
+  sec_mom_ += seconds_since(t1);
   const auto t2 = Clock::now();
   Field phi;
   solve_pressure(dt, u_new_, w_new_, phi);
   u_star_ = u_new_;
   w_star_ = w_new_;
-  sec_p_ = seconds_since(t2);
-  const auto t3 = Clock::now();
   correct_velocity(dt, phi, u_new_, w_new_);
   p_new_ = p_;
   // Rotational pressure update (Timmermans et al. 1996; Guermond, Minev & Shen 2006) for the
@@ -1274,24 +1307,115 @@ void NdamSolver::step(double dt) {
   for (int i = 0; i < slab_.nx_local; ++i)
     for (int k = 0; k < cfg_.grid.nz; ++k) {
       if (p_unknown(slab_.i0 + i, k))
-        p_new_(i, k) += phi(i, k) - rot * nu_(i, k) * divergence(u_star_, w_star_, i, k);
+        p_new_(i, k) += phi(i, k) - rot * nu_rot_(i, k) * divergence(u_star_, w_star_, i, k);
       else  // Dirichlet cells: phi is the increment to their value (surface normal stress,
             // eq. 26 at an interface, 0 when Empty); obstacles: phi = 0
         p_new_(i, k) += phi(i, k);
     }
   if (!cfg_.free_surface) normalise_pressure(p_new_);
   fill_scalar_ghosts(p_new_);
-  // divergence of the tentative state, for check() and the statistics
-  double dmax = 0.0;
-  for (int i = 0; i < slab_.nx_local; ++i)
-    for (int k = 0; k < cfg_.grid.nz; ++k)
-      if (fluid(slab_.i0 + i, k))
-        dmax = std::max(dmax, std::abs(divergence(u_new_, w_new_, i, k)));
-  max_div_new_ = allreduce_max(dmax, comm_);
-  t_new_ = t_ + dt;
-  dt_min_ = steps_ == 0 ? dt : std::min(dt_min_, dt);
-  dt_max_ = std::max(dt_max_, dt);
-  sec_other_ += seconds_since(t3);
+  sec_p_ += seconds_since(t2);
+}
+
+bool NdamSolver::pressure_dependent() const {
+  return (!rheo_.newtonian() && rheo_.tau_p != 0.0) || cfg_.walls[1].kind == WallKind::Coulomb ||
+         cfg_.walls[2].kind == WallKind::Coulomb;
+}
+
+// The nonlinear pressure system (10)+(13)+(14) of the paper: tau_y = tau_c + tau_p p and the
+// Coulomb law (13) at the new pressure. With P(q) one predictor-projection whose nu_eff(u^n, q)
+// and friction factors use the trial pressure q, the new pressure is the fixed point q = P(q),
+// i.e. the root of
+//     R(q) = (q - P(q)) / (p_ref sqrt(N)),   p_ref = g cos(zeta) Lz,  N = cells of the box,
+// so that ||R||_2 is the RMS pressure mismatch relative to the hydrostatic pressure at the
+// bottom of the box. For the paper's explicit momentum step this is exactly
+// -L (q - p^n) = -D u*(q) / dt with u*(q) = u^n + dt F(u^n, q), eq. (10) with F from (8) at q.
+// NOX solves R = 0 by Newton's method from q0 = p^n (the lagged answer is its first
+// residual); J v by finite differences of R (Jacobian-free: P contains the linear solves),
+// GMRES without a preconditioner since J = I - dP/dq is the identity plus the yield-stress
+// coupling. The state of the step is P at the converged q (so u^{n+1} and p^{n+1} belong to
+// one projection); a Newton solve that fails marks the step for check().
+void NdamSolver::solve_pressure_system(double dt) {
+  const auto t0 = Clock::now();
+  const int nxl = slab_.nx_local, nz = cfg_.grid.nz;
+  const std::size_t n = static_cast<std::size_t>(nxl) * static_cast<std::size_t>(nz);
+  newton_dt_ = dt;
+  newton_scale_ = 1.0 / (std::abs(phys_.gz) * cfg_.grid.lz *
+                         std::sqrt(static_cast<double>(cfg_.grid.nx) * nz));
+  if (!newton_) {
+    p_trial_ = Field(nxl, nz);
+    auto residual = [this, nxl, nz](const std::vector<double>& q, std::vector<double>& F) {
+      for (int i = 0; i < nxl; ++i)
+        for (int k = 0; k < nz; ++k) p_trial_(i, k) = q[static_cast<std::size_t>(i * nz + k)];
+      fill_scalar_ghosts(p_trial_);
+      update_viscosity(p_trial_);
+      project(newton_dt_);
+      F.resize(q.size());
+      for (int i = 0; i < nxl; ++i)
+        for (int k = 0; k < nz; ++k) {
+          const auto r = static_cast<std::size_t>(i * nz + k);
+          F[r] = (q[r] - p_new_(i, k)) * newton_scale_;
+        }
+      q_evaluated_ = q;
+      ++newton_evals_;
+    };
+    newton_ = std::make_unique<solvers::NonlinearSystem>(
+        comm_, static_cast<long long>(cfg_.grid.nx) * nz, p_gid(slab_.i0, 0), nxl * nz,
+        cfg_.pressure_newton, residual, solvers::NonlinearSystem::Matrix{});
+  }
+  std::vector<double> q(n);
+  for (int i = 0; i < nxl; ++i)
+    for (int k = 0; k < nz; ++k) q[static_cast<std::size_t>(i * nz + k)] = p_(i, k);
+  const double inner = sec_mom_ + sec_p_;
+  newton_stats_ = newton_->solve(q);
+  // the state of the step: P at the returned iterate (re-evaluated unless it was the last one)
+  if (q != q_evaluated_) {
+    for (int i = 0; i < nxl; ++i)
+      for (int k = 0; k < nz; ++k) p_trial_(i, k) = q[static_cast<std::size_t>(i * nz + k)];
+    fill_scalar_ghosts(p_trial_);
+    update_viscosity(p_trial_);
+    project(dt);
+  }
+  ++newton_solves_;
+  newton_iters_ += newton_stats_.newton_iterations;
+  newton_krylov_ += newton_stats_.krylov_iterations;
+  newton_max_iters_ = std::max(newton_max_iters_, newton_stats_.newton_iterations);
+  newton_worst_residual_ = std::max(newton_worst_residual_, newton_stats_.final_residual);
+  newton_failed_ = !newton_stats_.converged;
+  if (newton_failed_) {
+    // where the returned iterate is furthest from its own projection (for the diagnosis)
+    struct {
+      double v;
+      int cell;
+    } loc{-1.0, 0}, glob{-1.0, 0};
+    for (int i = 0; i < nxl; ++i)
+      for (int k = 0; k < nz; ++k) {
+        const double r = std::abs(q[static_cast<std::size_t>(i * nz + k)] - p_new_(i, k));
+        if (r > loc.v) loc = {r, (slab_.i0 + i) * nz + k};
+      }
+    MPI_Allreduce(&loc, &glob, 1, MPI_DOUBLE_INT, MPI_MAXLOC, comm_);
+    newton_fail_cell_ = {(glob.cell / nz + 0.5) * cfg_.grid.dx() + cfg_.x0,
+                         (glob.cell % nz + 0.5) * cfg_.grid.dz(), glob.v};
+  }
+  if (newton_failed_ && cfg_.newton_failure_continue) {
+    // 'Pressure Newton failure' = Continue: the step keeps the best iterate NOX returned (the
+    // line search only accepts decreasing ||R||); counted and reported, never silent.
+    newton_failed_ = false;
+    ++newton_continued_;
+    newton_continued_worst_ = std::max(newton_continued_worst_, newton_stats_.final_residual);
+    if (newton_continued_ == 1 && slab_.rank == 0)
+      std::fprintf(stderr,
+                   "\ngranflow: warning: the N-DAM pressure Newton solve did not converge in the "
+                   "step from t = %g s (%s); continuing with its best iterate ('Pressure Newton "
+                   "failure' = Continue); such steps are counted in summary.json "
+                   "(ndam.newton.unconverged_steps_continued)\n",
+                   t_, newton_stats_.reason.c_str());
+  }
+  // Newton's own work (NOX, GMRES vectors) counts as pressure time; the momentum predictors
+  // inside the residual evaluations stay in the momentum phase.
+  const double total = seconds_since(t0);
+  newton_seconds_ += total;
+  sec_p_ += std::max(0.0, total - (sec_mom_ + sec_p_ - inner));
 }
 
 double NdamSolver::last_seconds(const std::string& phase) const {
@@ -1327,6 +1451,23 @@ core::Health NdamSolver::check() const {
     h.ok = false;
     h.quantity = "u";
     h.reason = "not finite or above 1e4 m/s on another rank";
+  }
+  // The nonlinear pressure system: a Newton solve that did not converge stops the run (the
+  // NOX stats are reduced over all ranks, so the decision is collective).
+  if (h.ok && newton_failed_) {
+    h.ok = false;
+    h.quantity = "pressure Newton (NOX)";
+    h.value = newton_stats_.final_residual;
+    h.x = newton_fail_cell_[0];
+    std::ostringstream hist;
+    for (double r : newton_stats_.residual_history) hist << (hist.tellp() > 0 ? " " : "") << r;
+    h.reason = "the nonlinear pressure system did not converge: " + newton_stats_.reason +
+               " (||R|| per Newton iteration: " + hist.str() + "; " +
+               std::to_string(newton_stats_.krylov_iterations) +
+               " GMRES iterations; largest mismatch |q - P(q)| = " + gstr(newton_fail_cell_[2]) +
+               " m^2/s^2 in the cell at x = " + gstr(newton_fail_cell_[0]) +
+               " m, z = " + gstr(newton_fail_cell_[1]) + " m; see N-DAM->Pressure Newton: Absolute tolerance, Relative "
+               "tolerance, Max Newton iterations, or 'Pressure coupling' = Lagged)";
   }
   // A linear solve that stopped short of its tolerance is counted in summary.json; one that is
   // far from it (relative residual above 1e-6, e.g. 'Max iterations' too small for a stiff
@@ -1622,7 +1763,7 @@ void NdamSolver::load(const io::Checkpoint& c) {
   }
   fill_velocity_ghosts(u_, w_);
   fill_scalar_ghosts(p_);
-  update_viscosity();
+  update_viscosity(p_);
   if (markers_) update_profile_cache();
   u_new_ = u_;
   w_new_ = w_;
@@ -1659,6 +1800,23 @@ void NdamSolver::report(nlohmann::json& s) const {
     s["ndam"]["marker_area"] = marker_mass_.area;
     s["ndam"]["seconds_markers_last_step"] = sec_mark_;
   }
+  // The nonlinear pressure system (Pressure coupling = Nonlinear): Newton and Krylov (GMRES)
+  // iterations per step, residual evaluations (each one predictor-projection).
+  s["ndam"]["pressure_coupling"] =
+      cfg_.pressure_coupling == PressureCoupling::Nonlinear ? "Nonlinear" : "Lagged";
+  if (newton_solves_ > 0)
+    s["ndam"]["newton"] = {{"solves", newton_solves_},
+                           {"newton_iterations", newton_iters_},
+                           {"newton_iterations_per_step", avg(newton_iters_, newton_solves_)},
+                           {"newton_iterations_max", newton_max_iters_},
+                           {"krylov_iterations", newton_krylov_},
+                           {"krylov_iterations_per_step", avg(newton_krylov_, newton_solves_)},
+                           {"residual_evaluations", newton_evals_},
+                           {"residual_evaluations_per_step", avg(newton_evals_, newton_solves_)},
+                           {"worst_final_residual", newton_worst_residual_},
+                           {"unconverged_steps_continued", newton_continued_},
+                           {"worst_residual_continued", newton_continued_worst_},
+                           {"seconds", newton_seconds_}};
   // Wall time per phase over the accepted steps (this rank): momentum predictor, pressure
   // solve, markers (advection, injection, flags), and the rest of the step (viscosity,
   // correction, ghost exchange).

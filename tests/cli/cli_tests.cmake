@@ -42,6 +42,11 @@ granflow_cli_test(good_run 0 "completed at t = 0.2 s" ${_cli}/good_run.xml)
 # a run whose stable step collapses stops with a diagnosis and exit code 3
 granflow_cli_test(diverged_min_dt 3 "stable time step .* fell below 'Min time step'.*last good output and checkpoint are kept"
                   ${_cli}/diverge_min_dt.xml)
+# a 2D run whose nonlinear pressure solve fails stops with the Newton diagnosis and exit code 3
+granflow_cli_test(diverged_newton 3 "nonlinear pressure system did not converge.*Newton.*last good output and checkpoint are kept"
+                  ${_cli}/diverge_newton.xml)
+granflow_cli_test(newton_method_not_jfnk 2 "Pressure Newton->Method' = Newton-Krylov \\(analytic Jacobian\\).*allowed: Jacobian-free"
+                  ${_cli}/bad_newton_method.xml)
 add_test(NAME cli.restart_reproduces_straight_run
          COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> -DSRC=${_cli} -P ${_cli}/restart.cmake
          WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})

@@ -19,6 +19,10 @@ struct FsCase {
   double h_in = 0.06, u_in = 0.37;
   std::string momentum = "Implicit";
   double cfl = 0.5;
+  // pressure in tau_y and (13): "Lagged" or "Nonlinear" (NOX); Newton overrides when > 0
+  std::string coupling = "Lagged";
+  int newton_max = 0;
+  double newton_abs_tol = 0.0;
 };
 
 inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm = MPI_COMM_WORLD) {
@@ -34,6 +38,12 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   n.set("Free surface", true);
   n.set("Initial depth", c.depth);
   n.set("Friction regularisation", c.m_c);
+  n.set("Pressure coupling", c.coupling);
+  if (c.newton_max > 0) n.sublist("Pressure Newton").set("Max Newton iterations", c.newton_max);
+  if (c.newton_abs_tol > 0.0) {
+    n.sublist("Pressure Newton").set("Absolute tolerance", c.newton_abs_tol);
+    n.sublist("Pressure Newton").set("Relative tolerance", c.newton_abs_tol);
+  }
   auto& b = n.sublist("Boundaries");
   const char* sides[4] = {"Left", "Right", "Bottom", "Top"};
   for (int s = 0; s < 4; ++s) b.set(sides[s], c.walls[static_cast<std::size_t>(s)]);

@@ -31,6 +31,11 @@ struct Case {
   double tol = 1e-10;
   std::string preconditioner = "MueLu";
   std::string obstacles;  // "x0 x1 z0 z1; ..."
+  // pressure in tau_y and (13): "Lagged" or "Nonlinear" (NOX); Newton overrides when > 0
+  std::string coupling = "Lagged";
+  int newton_max = 0;
+  double newton_abs_tol = 0.0;
+  bool newton_continue = false;  // 'Pressure Newton failure' = Continue
 };
 
 inline std::unique_ptr<ndam::NdamSolver> make(const Case& c, MPI_Comm comm = MPI_COMM_WORLD) {
@@ -44,6 +49,13 @@ inline std::unique_ptr<ndam::NdamSolver> make(const Case& c, MPI_Comm comm = MPI
   n.set("CFL", c.cfl);
   n.set("Donor-cell weight", c.gamma);
   if (!c.obstacles.empty()) n.set("Obstacles", c.obstacles);
+  n.set("Pressure coupling", c.coupling);
+  if (c.newton_continue) n.set("Pressure Newton failure", "Continue");
+  if (c.newton_max > 0) n.sublist("Pressure Newton").set("Max Newton iterations", c.newton_max);
+  if (c.newton_abs_tol > 0.0) {
+    n.sublist("Pressure Newton").set("Absolute tolerance", c.newton_abs_tol);
+    n.sublist("Pressure Newton").set("Relative tolerance", c.newton_abs_tol);
+  }
   auto& b = n.sublist("Boundaries");
   const char* sides[4] = {"Left", "Right", "Bottom", "Top"};
   for (int s = 0; s < 4; ++s) {

@@ -37,4 +37,5 @@ set_tests_properties(ndam.app_rest_slope_np2 PROPERTIES LABELS "ndam;mpi" TIMEOU
                      PROCESSORS 2)
 
 # Free surface, Coulomb sliding, chute boundaries (issue 4).
-target_sources(test_ndam PRIVATE ${CMAKE_CURRENT_LIST_DIR}/test_ndam_chute.cpp)
+target_sources(test_ndam PRIVATE ${CMAKE_CURRENT_LIST_DIR}/test_ndam_chute.cpp
+                               ${CMAKE_CURRENT_LIST_DIR}/test_ndam_newton.cpp)

@@ -20,8 +20,14 @@
 // between material cells, pressure unknowns are the Fluid cells (Surface: normal-stress
 // Dirichlet value, Empty: p = 0), the silo gate injects at x = x0 and an open end removes
 // markers. Walls of kind Coulomb apply the sliding law (11)-(13) as a Robin ghost value. See
-// docs/numerics.md, "2D granular chute". The nonlinear pressure system (tau_p != 0 inside F,
-// solved with NOX) is not implemented yet: tau_y uses the lagged pressure p^n.
+// docs/numerics.md, "2D granular chute".
+//
+// Pressure coupling (the yield stress tau_y = tau_c + tau_p p and the Coulomb law (13) depend on
+// p): 'Lagged' evaluates them with p^n (one predictor-projection per step); 'Nonlinear' solves
+// the system (10)+(13)+(14) with tau_y and (13) at p^{n+1}: one step is the fixed-point map
+// p^{n+1} = P(q) (predictor and projection with nu_eff and the friction evaluated at q), and
+// NOX's Newton-Krylov method (Jacobian-free, GMRES) solves R(q) = q - P(q) = 0. See
+// docs/numerics.md, "Nonlinear pressure coupling".
 #include "granflow/core/channel.hpp"
 #include "granflow/core/material.hpp"
 #include "granflow/core/stepper.hpp"
@@ -29,6 +35,7 @@
 #include "granflow/ndam/markers.hpp"
 #include "granflow/ndam/rheology.hpp"
 #include "granflow/solvers/linear_system.hpp"
+#include "granflow/solvers/nonlinear_system.hpp"
 
 #include <mpi.h>
 
@@ -43,6 +50,9 @@
 namespace granflow::ndam {
 
 enum class Momentum { Explicit, Implicit };
+/// How the pressure enters tau_y and the Coulomb law (13): at t^n (Lagged) or at t^{n+1}
+/// (Nonlinear: the nonlinear pressure system solved by NOX in every step).
+enum class PressureCoupling { Lagged, Nonlinear };
 enum class Side : int { Left = 0, Right = 1, Bottom = 2, Top = 3 };
 /// Coulomb: the sliding law (11)-(13) with c_F = tan(delta) (1 - exp(-m_c |u_t|)) (Bottom and
 /// Right only; delta = 0 is free slip).
@@ -71,6 +81,11 @@ struct NdamConfig {
   /// (rigid, no-slip surfaces).
   std::vector<std::array<double, 4>> obstacles;
   Teuchos::ParameterList momentum_solver, pressure_solver;
+  PressureCoupling pressure_coupling = PressureCoupling::Lagged;
+  Teuchos::ParameterList pressure_newton;  ///< "Pressure Newton": NonlinearSystem's list
+  /// 'Pressure Newton failure' = Continue: an unconverged step keeps NOX's best iterate
+  /// (counted in summary.json) instead of stopping the run.
+  bool newton_failure_continue = false;
 
   // --- free-surface chute (issue 4) ----------------------------------------------------------
   /// Material tracked by markers: cells with markers are Fluid/Surface, the others Empty (p = 0).
@@ -143,6 +158,11 @@ class NdamSolver final : public core::Stepper {
   /// Statistics of the last step's linear solves (momentum is empty when explicit).
   const solvers::SolveStats& last_momentum_solve() const { return mom_stats_; }
   const solvers::SolveStats& last_pressure_solve() const { return p_stats_; }
+  /// The last step's Newton solve of the nonlinear pressure system ('Pressure coupling' =
+  /// Nonlinear and a pressure-dependent system; otherwise default-constructed).
+  const solvers::NonlinearStats& last_newton_solve() const { return newton_stats_; }
+  /// Newton solves so far (steps that solved the nonlinear pressure system).
+  long long newton_solves() const { return newton_solves_; }
   /// Cell flag of global cell (gi, k).
   CellFlag flag(int gi, int k) const {
     return flags_[static_cast<std::size_t>(gi * cfg_.grid.nz + k)];
@@ -199,8 +219,11 @@ class NdamSolver final : public core::Stepper {
   void exchange(Field& f) const;
   void fill_velocity_ghosts(Field& u, Field& w) const;
   void fill_scalar_ghosts(Field& s) const;
-  void update_viscosity();
-  void update_friction();
+  void update_viscosity(const Field& p_yield);
+  void update_friction(const Field& p_yield);
+  void project(double dt);  // predictor, projection, pressure update into *_new_ (timed)
+  void solve_pressure_system(double dt);  // 'Nonlinear': NOX on R(q) = q - P(q)
+  bool pressure_dependent() const;  // tau_p != 0 or a Coulomb side: the system is nonlinear
   void predict_velocity(double dt, Field& us, Field& ws);
   void solve_pressure(double dt, const Field& us, const Field& ws, Field& phi);
   void correct_velocity(double dt, const Field& phi, Field& us, Field& ws) const;
@@ -219,6 +242,7 @@ class NdamSolver final : public core::Stepper {
   int left_ = 0, right_ = 0;  // neighbour ranks (MPI_PROC_NULL at walls)
 
   Field u_, w_, p_, nu_;        // current state (ghosts filled)
+  Field nu_rot_;                 // nu_eff(u^n, p^n) of the rotational pressure update
   Field u_new_, w_new_, p_new_;  // tentative state of step()
   Field u_star_, w_star_;        // u* of the last step (rotational pressure update)
   std::vector<CellFlag> flags_;  // all cells of the box (every rank), gi * nz + k
@@ -242,6 +266,20 @@ class NdamSolver final : public core::Stepper {
   long steps_ = 0;
 
   std::unique_ptr<solvers::LinearSystem> pressure_, momentum_;
+  // Nonlinear pressure coupling: the NOX solver (built at the first step that needs it), the
+  // time step of the current solve, the trial pressure and the last evaluated q.
+  std::unique_ptr<solvers::NonlinearSystem> newton_;
+  double newton_dt_ = 0.0, newton_scale_ = 1.0;
+  Field p_trial_;
+  std::vector<double> q_evaluated_;
+  solvers::NonlinearStats newton_stats_;
+  bool newton_failed_ = false;
+  long long newton_solves_ = 0, newton_iters_ = 0, newton_krylov_ = 0, newton_evals_ = 0;
+  int newton_max_iters_ = 0;
+  std::array<double, 3> newton_fail_cell_{0.0, 0.0, 0.0};  // x, z, |q - P(q)| of a failure
+  long long newton_continued_ = 0;  // unconverged steps kept ('Pressure Newton failure')
+  double newton_continued_worst_ = 0.0;
+  double newton_worst_residual_ = 0.0, newton_seconds_ = 0.0;
   double momentum_dt_ = -1.0;  // dt of the assembled momentum matrix (reused when unchanged)
   solvers::SolveStats mom_stats_, p_stats_;
   double sec_mom_ = 0, sec_p_ = 0, sec_other_ = 0;
