@@ -314,7 +314,15 @@ NdamSolver::Ref NdamSolver::u_ref(int i, int k) const {
         return r;
       }
       if (!cfg_.periodic_x() && gi >= nx - 1) {
-        if (cfg_.outflow_right) return u_ref(nx - 2 - slab_.i0, k);  // zero gradient
+        if (cfg_.outflow_right) {
+          // zero gradient: the open face copies the last interior face, when that face is a
+          // material face. When it is not (the last column holds material, e.g. a splash, with
+          // Empty cells upstream), the interior face itself takes its value from this face
+          // (free-surface continuation, surface_face_ref): the open face keeps its value.
+          if (u_unknown(nx - 2 - slab_.i0, k)) return u_ref(nx - 2 - slab_.i0, k);
+          r.a = 1.0;
+          return r;
+        }
         return r;  // rigid wall: u = 0
       }
       // A face next to an Empty cell: its value is set by the free-surface conditions
