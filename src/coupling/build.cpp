@@ -46,9 +46,10 @@ Decomposition a_priori_layout(Decomposition d, const core::Material& m, const co
   return d;
 }
 
-std::unique_ptr<CoupledModel> build(const Decomposition& d, const core::Material& m,
+std::unique_ptr<CoupledModel> build(const Decomposition& layout, const core::Material& m,
                                     const core::Channel& c, const dam::DamConfig& cfg,
                                     const DamInitialiser& init, const TwoD* two_d) {
+  const Decomposition d = layout.normalised(c.length);
   const auto phys = dam::DamPhysics::from(m, c, cfg);
   const double dx = c.length / cfg.cells;
   const std::size_t n = d.models.size();
