@@ -89,8 +89,18 @@ std::unique_ptr<CoupledModel> build(const Decomposition& layout, const core::Mat
       if (i > 0) {
         // eq. (24): u_mean and h of the 1D side at x_IF; eq. (25): profile shape of the first
         // interior 2D column; eq. (26): p = g cos(zeta)(h - z)(1 + K)/2 with K = K_act.
+        // Mass: the 2D side lets in exactly what the DAM upstream lets out in the same step
+        // (its ledger term; the DAM has stepped first), not h u_mean of the reconstruction.
+        ndam::NdamSolver::InflowMass mass = [dams, i](double t, double dt) -> std::optional<double> {
+          const dam::DamSolver* up = (*dams)[i - 1];
+          if (!up) return std::nullopt;
+          const auto p = up->pending_step();
+          if (!p || std::abs(p->t0 - t) > 1e-12 * (1.0 + t) || std::abs(p->dt - dt) > 1e-12 * dt)
+            return std::nullopt;
+          return p->out;
+        };
         nd->set_inflow([state_at, i, x0](double) { return state_at(i - 1, x0); },
-                       ndam::InflowShape::CopyInterior, true, m.K_active());
+                       ndam::InflowShape::CopyInterior, true, m.K_active(), mass);
       }
       (*twods)[i] = nd.get();
       ndam::NdamSolver* raw = nd.get();

@@ -532,13 +532,15 @@ double NdamSolver::inflow_face(int k) const {
 }
 
 void NdamSolver::set_inflow(std::function<std::array<double, 2>(double t)> provider,
-                            InflowShape shape, bool impose_pressure, double K) {
+                            InflowShape shape, bool impose_pressure, double K, InflowMass mass) {
   if (!cfg_.free_surface || cfg_.periodic_x())
     throw params::InputError("N-DAM: an inflow needs 'Free surface' = true and a non-periodic box");
   cfg_.inflow = std::move(provider);
   cfg_.inflow_shape = shape;
   cfg_.inflow_pressure = impose_pressure;
   cfg_.inflow_K = K;
+  inflow_mass_ = std::move(mass);
+  inflow_owed_ = inflow_owed_new_ = 0.0;
   inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
   flags_changed_ = true;  // the Dirichlet cells of eq. (26) may have changed
   fill_velocity_ghosts(u_, w_);
@@ -1221,6 +1223,21 @@ void NdamSolver::step(double dt) {
   if (cfg_.free_surface) {
     // the gate state of this step (lagged at t^n), the boundary faces with it
     inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
+    inflow_owed_new_ = inflow_owed_;
+    if (inflow_mass_) {
+      if (const auto m = inflow_mass_(t_, dt)) {
+        // Exact transfer: the step lets in what the upstream side let out (plus what earlier
+        // steps could not take). The velocity is capped at 1.5 |u_mean| + 0.1 m/s of the
+        // provider (the CFL condition of this step was set with that u_mean), and a depth below
+        // 0.1 mm takes nothing: the rest waits for the next steps.
+        const double target = *m + inflow_owed_, h = inflow_now_[0];
+        const double ucap = 1.5 * std::abs(inflow_now_[1]) + 0.1;
+        double u = 0.0;
+        if (h > 1e-4 && target > 0.0) u = std::min(target / (dt * h), ucap);
+        inflow_now_[1] = u;
+        inflow_owed_new_ = target - u * dt * h;
+      }
+    }
     fill_velocity_ghosts(u_, w_);
   }
   update_viscosity();  // nu_eff(u^n, p^n), Coulomb ghost factors
@@ -1372,6 +1389,7 @@ void NdamSolver::accept() {
       }
       markers_->inject(dt, inflow_now_[0], uf);
     }
+    inflow_owed_ = inflow_owed_new_;
     const MarkerMass mm = markers_->mass();
     transfer_.in = mm.injected_area - marker_mass_.injected_area;
     transfer_.out = mm.removed_area - marker_mass_.removed_area;
@@ -1578,7 +1596,18 @@ void NdamSolver::save(io::Checkpoint& c) const {
     c.set("ndam/markers_injected", static_cast<double>(marker_mass_.injected));
     c.set("ndam/markers_removed", static_cast<double>(marker_mass_.removed));
     c.set("ndam/mass0", mass0_);
+    c.set("ndam/inflow_owed", inflow_owed_);
   }
+}
+
+double NdamSolver::inflow_pending() const {
+  if (!markers_) return 0.0;
+  double acc = 0.0;
+  if (slab_.i0 == 0)
+    for (double a : markers_->inflow_accumulators()) acc += a;
+  double all = 0.0;
+  MPI_Allreduce(&acc, &all, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  return inflow_owed_ + all * markers_->marker_area();
 }
 
 void NdamSolver::load(const io::Checkpoint& c) {
@@ -1616,6 +1645,8 @@ void NdamSolver::load(const io::Checkpoint& c) {
     st.removed = slab_.rank == 0 ? static_cast<long long>(c.scalar("ndam/markers_removed")) : 0;
     markers_->load(st);
     mass0_ = c.scalar("ndam/mass0");
+    if (c.scalars().count("ndam/inflow_owed")) inflow_owed_ = c.scalar("ndam/inflow_owed");
+    inflow_owed_new_ = inflow_owed_;
     marker_mass_ = markers_->mass();
     update_flags_from_markers();
     if (cfg_.inflow) inflow_now_ = cfg_.inflow(t_);
@@ -1658,6 +1689,7 @@ void NdamSolver::report(nlohmann::json& s) const {
     s["ndam"]["markers"] = marker_mass_.count;
     s["ndam"]["marker_area"] = marker_mass_.area;
     s["ndam"]["seconds_markers_last_step"] = sec_mark_;
+    if (inflow_mass_) s["ndam"]["inflow_pending_area"] = inflow_pending();
   }
   // Wall time per phase over the accepted steps (this rank): momentum predictor, pressure
   // solve, markers (advection, injection, flags), and the rest of the step (viscosity,

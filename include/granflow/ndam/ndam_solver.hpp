@@ -37,6 +37,7 @@
 #include <array>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -159,8 +160,18 @@ class NdamSolver final : public core::Stepper {
   ColumnState column_state(double x) const;
   /// Replaces the inflow of the left side after construction: {h, u_mean} at time t, the
   /// profile shape, and whether the inflow column gets the pressure of eq. (26).
+  /// `mass` (optional): the area [m^2 per unit width] the inflow must let in during the step
+  /// [t, t + dt], when known (a 1D-to-2D interface: exactly what the DAM upstream lets out in
+  /// the same step). The step's inflow velocity is then that mass / (dt h) instead of the
+  /// provider's u_mean; what cannot enter in a step (a negative or dry-side transfer, or beyond
+  /// the cap on the velocity, see docs/numerics.md) is carried to the next steps.
+  using InflowMass = std::function<std::optional<double>(double t, double dt)>;
   void set_inflow(std::function<std::array<double, 2>(double t)> provider, InflowShape shape,
-                  bool impose_pressure = false, double K = 1.0);
+                  bool impose_pressure = false, double K = 1.0, InflowMass mass = nullptr);
+  /// Inflow area not yet in the box as markers (collective): the carried mass of `mass` above
+  /// plus the fractional marker accumulators of the gate. Injected area + this = the total of
+  /// the `mass` provider (to round-off) when one is set.
+  double inflow_pending() const;
   struct Transfer {
     double in = 0.0, out = 0.0;  ///< marker area [m^2] that entered at x0 / left at x1
   };
@@ -229,6 +240,8 @@ class NdamSolver final : public core::Stepper {
   std::vector<double> bed_a_;    // Coulomb ghost factor of u(i,-1), local columns + G
   std::vector<double> wall_a_;   // Coulomb ghost factor of w(nx, k) at the right wall
   std::array<double, 2> inflow_now_{0.0, 0.0};  // {h_in, u_in} of the current step
+  InflowMass inflow_mass_;                        // exact mass of a step (1D-to-2D), optional
+  double inflow_owed_ = 0.0, inflow_owed_new_ = 0.0;  // carried inflow mass [m^2]
   std::vector<double> col_h_, col_u_, col_w_;  // column states of the whole box (every rank)
   Transfer transfer_;
   double mass0_ = 0.0;
