@@ -308,7 +308,18 @@ NdamSolver::Ref NdamSolver::u_ref(int i, int k) const {
         return r;
       }
       if (!cfg_.periodic_x() && gi >= nx - 1) {
-        if (cfg_.outflow_right) return u_ref(nx - 2 - slab_.i0, k);  // zero gradient
+        if (cfg_.outflow_right) {
+          // Zero gradient. Fix (issue 5): when the last column holds a Surface cell whose left
+          // neighbour is empty (the tail of a layer leaving through the open end), that cell's
+          // left face follows this one (surface_face_ref) and this one followed it back: an
+          // endless recursion (stack overflow once the front had left a chute). Such a face
+          // keeps its value, like the other known faces of an empty region.
+          if (!fluid(nx - 2, k) && fluid(nx - 1, k)) {
+            r.a = 1.0;
+            return r;
+          }
+          return u_ref(nx - 2 - slab_.i0, k);
+        }
         return r;  // rigid wall: u = 0
       }
       // A face next to an Empty cell: its value is set by the free-surface conditions
