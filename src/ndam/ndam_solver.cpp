@@ -249,7 +249,9 @@ bool NdamSolver::fluid(int gi, int k) const {
 bool NdamSolver::p_unknown(int gi, int k) const {
   // With the pressure of eq. (26) imposed at a 1D-to-2D interface, the material cells of the
   // inflow column are Dirichlet cells too.
-  if (cfg_.inflow_pressure && gi == 0 && !cfg_.periodic_x() && fluid(gi, k)) return false;
+  if (cfg_.inflow_pressure == InflowPressure::Dirichlet && gi == 0 && !cfg_.periodic_x() &&
+      fluid(gi, k))
+    return false;
   return gflag(gi, k) == CellFlag::Fluid;
 }
 
@@ -520,16 +522,25 @@ void NdamSolver::fill_scalar_ghosts(Field& s) const {
 // ---------------------------------------------------------------------------------------------
 // Free surface (marker-and-cell, NaSt2D ch. 7)
 // ---------------------------------------------------------------------------------------------
-// Inflow velocity of row k of the gate opening 0 <= z < h_in, as the flux-equivalent face value
-// u(-1,k) = (1/dz) int_{row k, z < h_in} u_in(z) dz (a face only partly below h_in carries the
-// flux of its open part). Uniform: u_in(z) = u_in. CopyInterior (eq. 25): the shape of the first
-// interior column u(0,k) over the opening, scaled so that its mean over [0, h_in] is u_in.
+// Inflow velocity of row k of the gate opening 0 <= z < h_in: the material velocity of the row
+// (u_in(z) on its open part), like every face of a partly filled Surface cell inside the box; the
+// mass that enters is the markers' (accept(): each row's open part times its face value, so the
+// total is h_in u_mean). Uniform: u_in(z) = u_in. CopyInterior (eq. 25): the shape of the first
+// interior column u(0,k), scaled so that its mean over the opening [0, h_in] is u_in.
+// Fix (issue 5): the face value used to be flux-equivalent, u_in times the open part of the
+// face. A row only partly below h_in is the top material row, and the interior faces of such a
+// row carry the full material velocity, so the gate slowed the top row down; with CopyInterior
+// the slowed row came back through the copied shape at every step and was slowed again, which
+// turned the profile over (measured in Setup I coupled at 5 mm: u = 2.78 / 1.76 m/s in the two
+// rows of the first 2D column behind x = 0.7 m against a plug of 2.56 / 2.58 m/s in full 2D, and
+// the downstream 2D part 3 % slow). Openings on cell boundaries (the shipped silo gates) are
+// unchanged.
 double NdamSolver::inflow_face(int k) const {
   const double h = inflow_now_[0], um = inflow_now_[1], dz = cfg_.grid.dz();
   if (!(h > 0.0)) return 0.0;
   const double open = std::clamp((h - k * dz) / dz, 0.0, 1.0);
   if (open <= 0.0) return 0.0;
-  if (cfg_.inflow_shape == InflowShape::Uniform || slab_.i0 != 0) return um * open;
+  if (cfg_.inflow_shape == InflowShape::Uniform || slab_.i0 != 0) return um;
   // shape from column 0 (this rank owns it): mean of the shape over the opening
   double q = 0.0;
   for (int kk = 0; kk < cfg_.grid.nz; ++kk) {
@@ -538,17 +549,24 @@ double NdamSolver::inflow_face(int k) const {
     q += o * dz * u_(0, kk);
   }
   const double mean = q / h;
-  if (!(std::abs(mean) > 1e-12)) return um * open;  // no shape yet (empty column): uniform
-  return um * open * u_(0, k) / mean;
+  if (!(std::abs(mean) > 1e-12)) return um;  // no shape yet (empty column): uniform
+  return um * u_(0, k) / mean;
+}
+
+// eq. (26): p = g cos(zeta) (h - z) (1 + K) / 2 with h the inflow depth, at the row's centre
+double NdamSolver::inflow_p26(int k) const {
+  const double z = (k + 0.5) * cfg_.grid.dz();
+  return std::abs(phys_.gz) * std::max(0.0, inflow_now_[0] - z) * (1.0 + cfg_.inflow_K) / 2.0;
 }
 
 void NdamSolver::set_inflow(std::function<std::array<double, 2>(double t)> provider,
-                            InflowShape shape, bool impose_pressure, double K, InflowMass mass) {
+                            InflowShape shape, InflowPressure pressure, double K,
+                            InflowMass mass) {
   if (!cfg_.free_surface || cfg_.periodic_x())
     throw params::InputError("N-DAM: an inflow needs 'Free surface' = true and a non-periodic box");
   cfg_.inflow = std::move(provider);
   cfg_.inflow_shape = shape;
-  cfg_.inflow_pressure = impose_pressure;
+  cfg_.inflow_pressure = pressure;
   cfg_.inflow_K = K;
   inflow_mass_ = std::move(mass);
   inflow_owed_ = inflow_owed_new_ = 0.0;
@@ -761,7 +779,11 @@ void NdamSolver::update_viscosity() {
       const double d12 =
           0.125 * (shear(i, k) + shear(i - 1, k) + shear(i, k - 1) + shear(i - 1, k - 1));
       const double normD = std::sqrt(2.0 * (d11 * d11 + d22 * d22 + 2.0 * d12 * d12));
-      nu_(i, k) = rheo_.nu_eff(normD, p_(i, k));
+      // the inflow column of a 1D-to-2D interface (InflowPressure::Rheology): tau_y from the
+      // pressure of eq. (26), the 1D side's pressure at x_IF
+      const bool p26 = cfg_.inflow_pressure == InflowPressure::Rheology && slab_.i0 + i == 0 &&
+                       !cfg_.periodic_x();
+      nu_(i, k) = rheo_.nu_eff(normD, p26 ? inflow_p26(k) : p_(i, k));
       if (cfg_.free_surface) normD_(i, k) = normD;
     }
   fill_scalar_ghosts(nu_);
@@ -1262,13 +1284,9 @@ void NdamSolver::step(double dt) {
       for (int k = 0; k < cfg_.grid.nz; ++k) {
         const CellFlag f = gflag(slab_.i0 + i, k);
         if (f == CellFlag::Surface || f == CellFlag::Empty) p_dir_(i, k) = ps(i, k) - p_(i, k);
-        if (cfg_.inflow_pressure && slab_.i0 + i == 0 && fluid(0, k)) {
-          // eq. (26): p = g cos(zeta) (h - z) (1 + K) / 2 with h the inflow depth
-          const double z = (k + 0.5) * cfg_.grid.dz();
-          const double p26 = std::abs(phys_.gz) * std::max(0.0, inflow_now_[0] - z) *
-                             (1.0 + cfg_.inflow_K) / 2.0;
-          p_dir_(i, k) = p26 - p_(i, k);
-        }
+        if (cfg_.inflow_pressure == InflowPressure::Dirichlet && slab_.i0 + i == 0 &&
+            fluid(0, k))
+          p_dir_(i, k) = inflow_p26(k) - p_(i, k);  // eq. (26) as the Dirichlet value
       }
     exchange(p_dir_);
     if (flags_changed_) {
@@ -1396,7 +1414,7 @@ void NdamSolver::accept() {
       const double dz = cfg_.grid.dz();
       for (int k = 0; k < cfg_.grid.nz; ++k) {
         const double open = std::clamp((inflow_now_[0] - k * dz) / dz, 0.0, 1.0);
-        if (open > 0.0) uf[static_cast<std::size_t>(k)] = u_(-1, k) / open;  // mean over the opening part
+        if (open > 0.0) uf[static_cast<std::size_t>(k)] = u_(-1, k);  // material velocity of the open part
       }
       markers_->inject(dt, inflow_now_[0], uf);
     }

@@ -27,15 +27,16 @@ foreach(r ${rows})
     message(FATAL_ERROR "averaged velocity error ${rel} > 2 % (${r})")
   endif()
 endforeach()
-# Mean velocity over the flowing channel, L2 ratio: measured 1.5 % at 0.25 s and 7.1 % at 0.5 s,
-# where most of it sits at the front, which the 1D and 2D models shape differently (the paper's
-# explanation of its Fig. 14 early-time errors). Asserted 12 %: a broken interface (reflection,
-# lost inflow) gives O(1) errors behind the 1D-2D interface.
+# Mean velocity over the flowing channel, L2 ratio: measured 1.5 % at 0.25 s and 2.5 % at 0.5 s
+# (7.1 % at 0.5 s before the fix of the 1D-to-2D inflow's partly open top row, issue 5), where
+# most of it sits at the front, which the 1D and 2D models shape differently (the paper's
+# explanation of its Fig. 14 early-time errors). Asserted 5 %: a broken interface (reflection,
+# lost inflow, the slowed top row) gives errors of 7 % to O(1) behind the 1D-2D interface.
 file(STRINGS coupled_check_cmp/compare_errors.csv rows REGEX "^0\\.[0-9]*,u_mean,")
 foreach(r ${rows})
   string(REPLACE "," ";" f "${r}")
   list(GET f 3 l2)
-  if(l2 GREATER 0.12)
-    message(FATAL_ERROR "u_mean L2 error ${l2} > 12 % (${r})")
+  if(l2 GREATER 0.05)
+    message(FATAL_ERROR "u_mean L2 error ${l2} > 5 % (${r})")
   endif()
 endforeach()

@@ -3,6 +3,7 @@
 // part is the full 2D run, mass through the interfaces is conserved, and steady supercritical
 // flow crosses the 2D-to-1D and 1D-to-2D interfaces without reflections.
 #include "granflow/coupling/coupled_model.hpp"
+#include "granflow/dam/dam_solver.hpp"
 #include "granflow/ndam/ndam_solver.hpp"
 #include "granflow/scene/scene.hpp"
 
@@ -214,6 +215,10 @@ TEST(Coupled2D, MassThroughInterfacesIsConserved) {
     defects.push_back(p.model->mass_balance().defect());
     parts_defect += defects.back();
   }
+  const auto& dam = dynamic_cast<const dam::DamSolver&>(*c.parts()[1].model);
+  const double half_cell = 0.5 * dam.dx() * dam.sample(0.2)[0];
+  std::printf("[measured] DAM grid %s, half cell at 0.2 m: %.3e m^2\n",
+              dam.staggered() ? "staggered" : "primary", half_cell);
   std::printf("[measured] Setup II coupled, 10 mm, t = 0.75 s: 2D->1D at 0.2 m out %.6e in %.6e "
               "(rel %.2e); 1D->2D at 0.7 m out %.6e in %.6e pending %.3e (rel out - in - pending "
               "%.2e); subdomain defects %.2e %.2e %.2e; total defect %.3e of %.5f m^2\n",
@@ -231,16 +236,120 @@ TEST(Coupled2D, MassThroughInterfacesIsConserved) {
   EXPECT_GE(pending, -1e-15);
   EXPECT_LE(pending, 24 * 6.25e-6);
   // 2D -> 1D: the DAM's first cells evaluate the flux across x = 0.2 m from the 2D columns' h and
-  // u_mean (eqs. 19-21), the 2D side counts the markers that left: they agree to discretisation
-  // accuracy only (measured 0.27 % here, 0.3 % at 5 mm; 1.05 % at t = 0.5 s while the front
-  // has just crossed). Asserted 1 %.
-  EXPECT_NEAR(i0[1], i0[0], 1e-2 * i0[0]);
+  // u_mean (eqs. 19-21), the 2D side counts the markers that left. On the staggered grid the
+  // DAM's end cell is centred at x_IF and its ledger has already taken in about half a cell,
+  // dx h / 2, that the 2D side still holds (given back on the next, primary step): measured
+  // in - out = 8.47e-5 m^2 with dx h / 2 = 8.9e-5 m^2 (staggered at t = 0.75 s), i.e. 0.04 % of
+  // the transfer once the half cell is accounted for (0.27 % at an earlier state on the primary
+  // grid). Asserted 0.5 % after the half cell.
+  EXPECT_NEAR(i0[1] - (dam.staggered() ? half_cell : 0.0), i0[0], 5e-3 * i0[0]);
   // Total balance: the 2D subdomains' marker ledgers are exact (defect 0), the DAM's is exact
   // up to its positivity fixes at the front, so the coupled defect is the 2D->1D mismatch plus
   // the 1D->2D pending mass plus the subdomains' own defects, to round-off.
-  EXPECT_EQ(defects[0], 0.0);
-  EXPECT_EQ(defects[2], 0.0);
+  EXPECT_NEAR(defects[0], 0.0, 1e-15);
+  EXPECT_NEAR(defects[2], 0.0, 1e-15);
   EXPECT_NEAR(mb.defect(), (i0[1] - i0[0]) + (i1[1] - i1[0]) + parts_defect, 1e-12);
-  // and the whole balance closes to 0.5 % of the mass in the channel (measured 0.24 %).
-  EXPECT_LT(std::abs(mb.defect()), 5e-3 * mb.current);
+  // The whole balance closes up to that half cell to 0.2 % of the mass in the channel
+  // (measured 7.33e-5 m^2 - 8.9e-5 m^2 = 0.09 %).
+  EXPECT_LT(std::abs(mb.defect() - (dam.staggered() ? half_cell : 0.0)), 2e-3 * mb.current);
+}
+
+// Steady supercritical flow through both interfaces: Setup I's chute shortened to L = 1 m (open
+// end), 2D [0, 0.2] / 1D [0.2, 0.7] / 2D [0.7, 1], against the full 2D run, at t = 1 s when the
+// front has left the channel (at about 0.55 s) and the flow from the gate is steady. A reflection
+// at either interface would show as a disturbance upstream of it (the 2D part [0, 0.2] m) or as
+// a jump of h or u_mean across it.
+TEST(Coupled2D, SteadySupercriticalFlowCrossesInterfacesWithoutReflections) {
+  Chute full;
+  full.name = "steady_full";
+  full.model = "N-DAM";
+  full.end_time = 1.0;
+  Chute cpl = full;
+  cpl.name = "steady_coupled";
+  cpl.model = "Coupled";
+  auto a = full.build();
+  auto b = cpl.build();
+  // the full run's profile 0.1 s before the end: how steady the reference is
+  run(*a, 0.9);
+  const auto p09 = a->profile();
+  run(*a, full.end_time);
+  run(*b, cpl.end_time);
+  const auto pa = a->profile(), pb = b->profile();
+  ASSERT_EQ(pa.x.size(), pb.x.size());
+  const double h_min = 1e-3;
+  const double unsteady = rel_l2(pa.u_mean, p09.u_mean, pa.h, h_min);
+  // error of the coupled run: the upstream 2D part, the 1D part, the downstream 2D part
+  auto part = [&](double x0, double x1, const std::vector<double>& ra,
+                  const std::vector<double>& rb) {
+    std::vector<double> va, vb, ha;
+    for (std::size_t i = 0; i < pa.x.size(); ++i)
+      if (pa.x[i] >= x0 && pa.x[i] < x1) {
+        va.push_back(ra[i]);
+        vb.push_back(rb[i]);
+        ha.push_back(pa.h[i]);
+      }
+    return rel_l2(va, vb, ha, h_min);
+  };
+  const double up_h = part(0.0, 0.2, pa.h, pb.h), up_u = part(0.0, 0.2, pa.u_mean, pb.u_mean);
+  const double mid_h = part(0.2, 0.7, pa.h, pb.h), mid_u = part(0.2, 0.7, pa.u_mean, pb.u_mean);
+  const double dn_h = part(0.7, 1.0, pa.h, pb.h), dn_u = part(0.7, 1.0, pa.u_mean, pb.u_mean);
+  const double all_h = rel_l2(pa.h, pb.h, pa.h, h_min);
+  const double all_u = rel_l2(pa.u_mean, pb.u_mean, pa.h, h_min);
+  // jumps across the interfaces: the change of u_mean and h between the two cells either side
+  // of x_IF in the coupled run, against the same change in the full 2D run
+  auto jump = [&](double x, const std::vector<double>& ra, const std::vector<double>& rb) {
+    std::size_t k = 0;
+    while (k + 1 < pb.x.size() && pb.x[k + 1] < x) ++k;
+    const double dc = rb[k + 1] - rb[k], df = ra[k + 1] - ra[k];
+    return std::abs(dc - df) / std::abs(ra[k]);
+  };
+  const double j1u = jump(0.2, pa.u_mean, pb.u_mean), j1h = jump(0.2, pa.h, pb.h);
+  const double j2u = jump(0.7, pa.u_mean, pb.u_mean), j2h = jump(0.7, pa.h, pb.h);
+  // mean depth of each part (the mass per length: robust to the marker depth's quantisation,
+  // the layer is under one 10 mm cell deep beyond x = 0.3 m)
+  auto mean_h = [&](double x0, double x1, const core::Profile& p) {
+    double s = 0;
+    int n = 0;
+    for (std::size_t i = 0; i < p.x.size(); ++i)
+      if (p.x[i] >= x0 && p.x[i] < x1) {
+        s += p.h[i];
+        ++n;
+      }
+    return s / n;
+  };
+  double mh[3];
+  const double xs[4] = {0.0, 0.2, 0.7, 1.0};
+  for (int q = 0; q < 3; ++q)
+    mh[q] = std::abs(mean_h(xs[q], xs[q + 1], pb) / mean_h(xs[q], xs[q + 1], pa) - 1.0);
+  std::printf("[measured] steady flow, L = 1 m, 10 mm, t = 1 s: full 2D change 0.9 -> 1 s %.2e; "
+              "coupled vs full L2 h / u_mean: [0, 0.2] %.2e / %.2e, [0.2, 0.7] %.2e / %.2e, "
+              "[0.7, 1] %.2e / %.2e, all %.2e / %.2e; mean h of the parts %.2e %.2e %.2e; "
+              "excess jump at 0.2 m h %.2e u %.2e, at 0.7 m h %.2e u %.2e\n",
+              unsteady, up_h, up_u, mid_h, mid_u, dn_h, dn_u, all_h, all_u, mh[0], mh[1], mh[2],
+              j1h, j1u, j2h, j2u);
+  // The reference is steady: u_mean changed by 0.15 % (L2) from t = 0.9 to 1 s. Asserted 1 %.
+  EXPECT_LT(unsteady, 1e-2);
+  // Upstream of the 2D-to-1D interface: a reflection would disturb [0, 0.2] m. What remains is
+  // the open outflow of that 2D subdomain (zero-gradient velocity), which slows its last two or
+  // three columns by up to 4 % (seen at 5 mm too). Measured 1.3 % (L2); asserted 3 %.
+  EXPECT_LT(up_u, 3e-2);
+  // The 1D part: the DAM's own physics against the 2D model's (Savage-Hutter with K_act
+  // against Drucker-Prager with Coulomb sliding), not an interface effect. Measured 2.7 %;
+  // asserted 5 %.
+  EXPECT_LT(mid_u, 5e-2);
+  // Downstream of the 1D-to-2D interface: measured 0.26 %; asserted 1.5 % (before the fix of the
+  // gate's partly open top row this part was 3 to 10 % slow, docs/validation.md).
+  EXPECT_LT(dn_u, 1.5e-2);
+  // No jump of u_mean across either interface beyond the full 2D run's own change between the
+  // same two cells: measured 0.39 % at 0.2 m and 0.15 % at 0.7 m; asserted 1.5 %.
+  EXPECT_LT(j1u, 1.5e-2);
+  EXPECT_LT(j2u, 1.5e-2);
+  // Mass per length of each part (steady: q / u_mean, so it follows u_mean): measured 0 % /
+  // 4.4 % / 1.3 % (the DAM is up to 4 % slower than the 2D model just behind x = 0.2 m);
+  // asserted 3 % in the 2D parts and 7 % in the 1D part. The pointwise h differences (L2 about
+  // 10 % beyond 0.2 m) are the marker depth's quantisation in a layer under one cell deep, in
+  // both runs, and are not asserted.
+  EXPECT_LT(mh[0], 3e-2);
+  EXPECT_LT(mh[1], 7e-2);
+  EXPECT_LT(mh[2], 3e-2);
 }

@@ -34,6 +34,9 @@ struct Decomposition {
   double eps_threshold = 0.1;       ///< a priori: 2D where eps = 1/Fr^2 >= this
   double margin = 0.05;             ///< a priori: widening of each 2D region [m]
   double min_length = 0.05;         ///< a priori: shortest subdomain kept [m]
+  /// 1D-to-2D interfaces: how the pressure of eq. (26) enters the 2D inflow column
+  /// ("Rheology", "Dirichlet" or "None"; see ndam::InflowPressure).
+  std::string interface_pressure = "Rheology";
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
   static Decomposition from_parameters(const Teuchos::ParameterList& pl,
