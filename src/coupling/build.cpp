@@ -88,7 +88,8 @@ std::unique_ptr<CoupledModel> build(const Decomposition& layout, const core::Mat
                                                    two_d->physics);
       if (i > 0) {
         // eq. (24): u_mean and h of the 1D side at x_IF; eq. (25): profile shape of the first
-        // interior 2D column; eq. (26): p = g cos(zeta)(h - z)(1 + K)/2 with K = K_act, in the
+        // interior 2D column; eq. (26): p = g cos(zeta)(h - z)(1 + K)/2 with K = K_act of the 1D
+        // side (its delta_1D when DAM->Bed friction angle is set), in the
         // way 'Interface pressure' says.
         const auto pressure = d.interface_pressure == "Dirichlet" ? ndam::InflowPressure::Dirichlet
                               : d.interface_pressure == "None"    ? ndam::InflowPressure::None
@@ -104,7 +105,8 @@ std::unique_ptr<CoupledModel> build(const Decomposition& layout, const core::Mat
           return p->out;
         };
         nd->set_inflow([state_at, i, x0](double) { return state_at(i - 1, x0); },
-                       ndam::InflowShape::CopyInterior, pressure, m.K_active(), mass);
+                       ndam::InflowShape::CopyInterior, pressure, cfg.material(m).K_active(),
+                       mass);
       }
       (*twods)[i] = nd.get();
       ndam::NdamSolver* raw = nd.get();

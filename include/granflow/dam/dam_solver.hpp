@@ -40,9 +40,15 @@ struct DamConfig {
   EarthPressure earth_pressure = EarthPressure::SavageHutter;
   double k_smoothing = 0.1;  ///< [1/s] width of the tanh switch of K at u_x = 0
   double dry_depth = 1e-6;   ///< [m] below this depth a cell is dry: u = 0
+  /// delta_1D [deg]: bed friction angle of the DAM when it differs from the Material's (the
+  /// paper's Fig. 12 study); negative: the Material's 'Bed friction angle'.
+  double bed_friction_deg = -1.0;
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
   static DamConfig from_parameters(const Teuchos::ParameterList& pl);
+  /// The material the DAM sees: `m` with the bed friction angle of this config if it is set.
+  /// Throws InputError (naming 'DAM->Bed friction angle') if that exceeds phi.
+  core::Material material(const core::Material& m) const;
 };
 
 /// The physical coefficients the DAM needs, from Material and Channel.
