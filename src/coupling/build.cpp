@@ -81,6 +81,7 @@ std::unique_ptr<CoupledModel> build(const Decomposition& layout, const core::Mat
       cfg2.grid.nx = std::max(4, static_cast<int>(std::lround((x1 - x0) / dx2)));
       if (i + 1 < n) {  // open outflow into the next subdomain
         cfg2.outflow_right = true;
+        cfg2.outflow_extrapolate = true;  // inside the accelerating flow, not its end
         cfg2.walls[static_cast<int>(ndam::Side::Right)].kind = ndam::WallKind::FreeSlip;
       }
       if (i > 0) cfg2.inflow = nullptr;  // set below from the upstream neighbour

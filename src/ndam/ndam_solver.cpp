@@ -320,7 +320,9 @@ NdamSolver::Ref NdamSolver::u_ref(int i, int k) const {
             r.a = 1.0;
             return r;
           }
-          return u_ref(nx - 2 - slab_.i0, k);
+          Ref m = u_ref(nx - 2 - slab_.i0, k);
+          m.b += outflow_slope(k);
+          return m;
         }
         return r;  // rigid wall: u = 0
       }
@@ -473,7 +475,8 @@ void NdamSolver::boundary_faces(Field& u, Field& w) const {
       }
     if (slab_.i0 + nxl == cfg_.grid.nx)
       for (int k = -1; k <= nz; ++k) {
-        const double v = cfg_.free_surface && cfg_.outflow_right ? u(nxl - 2, k) : 0.0;
+        const double v =
+            cfg_.free_surface && cfg_.outflow_right ? u(nxl - 2, k) + outflow_slope(k) : 0.0;
         u(nxl - 1, k) = u(nxl, k) = u(nxl + 1, k) = v;
       }
   }
@@ -551,6 +554,16 @@ double NdamSolver::inflow_face(int k) const {
   const double mean = q / h;
   if (!(std::abs(mean) > 1e-12)) return um;  // no shape yet (empty column): uniform
   return um * u_(0, k) / mean;
+}
+
+// Lagged gradient continued through an open outflow (NdamConfig::outflow_extrapolate): the
+// difference of the last two interior faces of row k in the current state u_, where both are
+// material faces; 0 otherwise (zero gradient) and on ranks that do not own the end.
+double NdamSolver::outflow_slope(int k) const {
+  const int nx = cfg_.grid.nx, i = nx - 2 - slab_.i0;
+  if (!cfg_.outflow_extrapolate || slab_.i0 + slab_.nx_local != nx || i - 1 < -Field::G) return 0.0;
+  if (!u_unknown(i, k) || !u_unknown(i - 1, k)) return 0.0;
+  return u_(i, k) - u_(i - 1, k);
 }
 
 // eq. (26): p = g cos(zeta) (h - z) (1 + K) / 2 with h the inflow depth, at the row's centre

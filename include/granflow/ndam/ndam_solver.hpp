@@ -95,6 +95,10 @@ struct NdamConfig {
   InflowPressure inflow_pressure = InflowPressure::None;
   double inflow_K = 1.0;  ///< earth pressure coefficient K of eq. (26)
   bool outflow_right = false;  ///< open outflow at x = x0 + L (else the Right wall)
+  /// Open outflow: u continues beyond the last interior face with the lagged (t^n) gradient of
+  /// the last two interior faces instead of zero gradient (the 2D side of a 2D-to-1D interface
+  /// inside an accelerating flow; the channel's own open end keeps zero gradient).
+  bool outflow_extrapolate = false;
   double m_c = 100.0;  ///< [s/m] regularisation of the Coulomb friction factor (12)
   double x0 = 0.0;     ///< grid origin along the slope [m] (2D subdomains of the coupled model)
 
@@ -209,6 +213,7 @@ class NdamSolver final : public core::Stepper {
   void boundary_faces(Field& u, Field& w) const;
   double inflow_face(int k) const;  // u(-1, k) of the gate (material velocity of the open rows)
   double inflow_p26(int k) const;   // eq. (26) at the centre of row k of the inflow column
+  double outflow_slope(int k) const;  // lagged u difference of the last two faces (extrapolate)
   void update_profile_cache();
   bool u_unknown(int i, int k) const;  // u(i,k) an unknown: fluid on both sides, not a wall
   bool w_unknown(int i, int k) const;
