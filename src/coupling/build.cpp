@@ -46,9 +46,10 @@ Decomposition a_priori_layout(Decomposition d, const core::Material& m, const co
   return d;
 }
 
-std::unique_ptr<CoupledModel> build(const Decomposition& d, const core::Material& m,
+std::unique_ptr<CoupledModel> build(const Decomposition& layout, const core::Material& m,
                                     const core::Channel& c, const dam::DamConfig& cfg,
                                     const DamInitialiser& init, const TwoD* two_d) {
+  const Decomposition d = layout.normalised(c.length);
   const auto phys = dam::DamPhysics::from(m, c, cfg);
   const double dx = c.length / cfg.cells;
   const std::size_t n = d.models.size();
@@ -80,6 +81,7 @@ std::unique_ptr<CoupledModel> build(const Decomposition& d, const core::Material
       cfg2.grid.nx = std::max(4, static_cast<int>(std::lround((x1 - x0) / dx2)));
       if (i + 1 < n) {  // open outflow into the next subdomain
         cfg2.outflow_right = true;
+        cfg2.outflow_extrapolate = true;  // inside the accelerating flow, not its end
         cfg2.walls[static_cast<int>(ndam::Side::Right)].kind = ndam::WallKind::FreeSlip;
       }
       if (i > 0) cfg2.inflow = nullptr;  // set below from the upstream neighbour
@@ -87,9 +89,25 @@ std::unique_ptr<CoupledModel> build(const Decomposition& d, const core::Material
                                                    two_d->physics);
       if (i > 0) {
         // eq. (24): u_mean and h of the 1D side at x_IF; eq. (25): profile shape of the first
-        // interior 2D column; eq. (26): p = g cos(zeta)(h - z)(1 + K)/2 with K = K_act.
+        // interior 2D column; eq. (26): p = g cos(zeta)(h - z)(1 + K)/2 with K = K_act of the 1D
+        // side (its delta_1D when DAM->Bed friction angle is set), in the
+        // way 'Interface pressure' says.
+        const auto pressure = d.interface_pressure == "Dirichlet" ? ndam::InflowPressure::Dirichlet
+                              : d.interface_pressure == "None"    ? ndam::InflowPressure::None
+                                                                  : ndam::InflowPressure::Rheology;
+        // Mass: the 2D side lets in exactly what the DAM upstream lets out in the same step
+        // (its ledger term; the DAM has stepped first), not h u_mean of the reconstruction.
+        ndam::NdamSolver::InflowMass mass = [dams, i](double t, double dt) -> std::optional<double> {
+          const dam::DamSolver* up = (*dams)[i - 1];
+          if (!up) return std::nullopt;
+          const auto p = up->pending_step();
+          if (!p || std::abs(p->t0 - t) > 1e-12 * (1.0 + t) || std::abs(p->dt - dt) > 1e-12 * dt)
+            return std::nullopt;
+          return p->out;
+        };
         nd->set_inflow([state_at, i, x0](double) { return state_at(i - 1, x0); },
-                       ndam::InflowShape::CopyInterior, true, m.K_active());
+                       ndam::InflowShape::CopyInterior, pressure, cfg.material(m).K_active(),
+                       mass);
       }
       (*twods)[i] = nd.get();
       ndam::NdamSolver* raw = nd.get();

@@ -31,8 +31,10 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
             Teuchos::rcp(new Teuchos::ArrayStringValidator(kinds)));
     auto pos = Teuchos::rcp(new Teuchos::EnhancedNumberValidator<double>(0.0, 1e6));
     pl->set("Interfaces", Teuchos::Array<double>(Teuchos::tuple<double>(0.2, 0.7)),
-            "[m] interior interface positions, strictly increasing inside (0, L) (Static layout); "
-            "the paper's Setup I/II layout is {0.2, 0.7}",
+            "[m] interface positions, non-decreasing in [0, L] (Static layout); the paper's "
+            "Setup I/II layout is {0.2, 0.7}. A subdomain of zero length (equal neighbouring "
+            "positions, or a position at 0 or L) is left out and same-model neighbours that then "
+            "touch become one subdomain: {2D, 1D, 2D} with {a, a} is the full 2D model",
             Teuchos::rcp(new Teuchos::ArrayNumberValidator<double>(pos)));
     add_double(*pl, "Shallowness threshold", 0.1,
                "A priori layout: 2D wherever eps = 1/Fr^2 reaches this at any output time of the "
@@ -44,6 +46,15 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
                0.0, 1e6);
     add_double(*pl, "Minimum length", 0.05,
                "[m] A priori layout: shorter 1D gaps and end pieces become 2D", 0.0, 1e6);
+    add_enum(*pl, "Interface pressure", "Rheology",
+             "how the pressure of eq. (26), p = g cos(zeta)(h - z)(1 + K_act)/2, enters the first "
+             "2D column behind a 1D-to-2D interface: Rheology: the column stays in the "
+             "projection (div u = 0) and eq. (26) is the pressure of its yield stress; Dirichlet: "
+             "the paper's literal reading, eq. (26) imposed as the column's pressure (continuity "
+             "is then not enforced there, and the 2D flow behind the interface is measured 5 to "
+             "10 % too slow, docs/validation.md); None: the column's pressure is solved and "
+             "eq. (26) is not used",
+             {"Rheology", "Dirichlet", "None"});
     return pl;
   }();
   return valid;
@@ -68,6 +79,7 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   d.eps_threshold = pl.get<double>("Shallowness threshold");
   d.margin = pl.get<double>("Margin");
   d.min_length = pl.get<double>("Minimum length");
+  d.interface_pressure = pl.get<std::string>("Interface pressure");
   if (d.layout == "Static") {
     if (d.models.size() != d.interfaces.size() + 1)
       params::fail(pl, "Models", Teuchos::toString(models),
@@ -75,16 +87,44 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
                        " (one model per subdomain)");
     double prev = 0.0;
     for (double x : d.interfaces) {
-      if (!(x > prev) || !(x < channel.length))
+      if (!(x >= prev) || !(x <= channel.length))
         params::fail(pl, "Interfaces", list(d.interfaces),
-                     "positions must increase strictly inside (0, L = " +
-                         params::str(channel.length) + ")");
+                     "positions must not decrease and must lie in [0, L = " +
+                         params::str(channel.length) +
+                         "] (equal neighbours give a subdomain of zero length, which is left out)");
       prev = x;
     }
-    if (channel.left.type == core::BoundaryType::Periodic && d.models.size() > 1)
+    if (channel.left.type == core::BoundaryType::Periodic && d.normalised(channel.length).models.size() > 1)
       params::fail(pl, "Models", Teuchos::toString(models),
                    "a periodic channel cannot be split into subdomains; allowed: one subdomain");
   }
+  return d;
+}
+
+Decomposition Decomposition::normalised(double length) const {
+  // A subdomain of zero length holds no cell of either model, so it is left out; its two
+  // neighbours then touch, and when they run the same model there is no interface between them
+  // that either model's conditions would describe: they become one subdomain. (This is also
+  // what a domain manager does when a 1D region between two 2D ones shrinks to nothing.)
+  Decomposition d = *this;
+  if (models.size() != interfaces.size() + 1) return d;  // a priori: replaced before building
+  d.models.clear();
+  d.interfaces.clear();
+  // An interface the user asked for between two subdomains of the same model (1D | 1D) stays.
+  bool dropped = false;  // a zero-length subdomain since the last one kept
+  for (std::size_t i = 0; i < models.size(); ++i) {
+    const auto [a, b] = extent(i, length);
+    if (!(b > a)) {  // zero length (an end piece at x = 0 or x = L included)
+      dropped = true;
+      continue;
+    }
+    const bool merge = dropped && !d.models.empty() && d.models.back() == models[i];
+    dropped = false;
+    if (merge) continue;  // the previous subdomain extends to b
+    if (!d.models.empty()) d.interfaces.push_back(a);
+    d.models.push_back(models[i]);
+  }
+  if (d.models.empty()) d.models.push_back(models.back());
   return d;
 }
 

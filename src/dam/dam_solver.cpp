@@ -54,6 +54,12 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
                1e-8, 1e6);
     add_double(*pl, "Dry depth", d.dry_depth,
                "[m] cells shallower than this are dry: their velocity is zero", 0.0, 1.0);
+    add_double(*pl, "Bed friction angle", d.bed_friction_deg,
+               "delta_1D [deg]: bed friction angle of the DAM (source term and K) when it should "
+               "differ from Material->Bed friction angle, e.g. the 1D subdomains of a coupled "
+               "run against delta_2D in the 2D ones (the paper's Fig. 12); -1: the Material's. "
+               "Allowed: -1 or [0, Material->Internal friction angle]",
+               -1.0, 89.0);
     return pl;
   }();
   return valid;
@@ -71,11 +77,30 @@ DamConfig DamConfig::from_parameters(const Teuchos::ParameterList& pl) {
                                            : EarthPressure::Isotropic;
   c.k_smoothing = pl.get<double>("Earth pressure smoothing");
   c.dry_depth = pl.get<double>("Dry depth");
+  c.bed_friction_deg = pl.get<double>("Bed friction angle");
+  if (c.bed_friction_deg < 0.0 && c.bed_friction_deg != -1.0)
+    params::fail(pl, "Bed friction angle", params::str(c.bed_friction_deg),
+                 "negative values other than -1 (the Material's angle) mean nothing; allowed: -1 "
+                 "or [0, Material->Internal friction angle]");
   return c;
 }
 
-DamPhysics DamPhysics::from(const core::Material& m, const core::Channel& c,
+core::Material DamConfig::material(const core::Material& m) const {
+  core::Material d = m;
+  if (bed_friction_deg < 0.0) return d;
+  if (bed_friction_deg > m.internal_friction_deg)
+    throw params::InputError(
+        "parameter 'granflow->DAM->Bed friction angle' = " + params::str(bed_friction_deg) +
+        ": must not exceed Material->Internal friction angle = " +
+        params::str(m.internal_friction_deg) +
+        " deg: the earth pressure coefficient K needs delta <= phi; allowed: -1 or [0, phi]");
+  d.bed_friction_deg = bed_friction_deg;
+  return d;
+}
+
+DamPhysics DamPhysics::from(const core::Material& material, const core::Channel& c,
                             const DamConfig& cfg) {
+  const core::Material m = cfg.material(material);  // delta_1D when the DAM list sets one
   DamPhysics p;
   p.g_sin = c.g_sin(m.gravity);
   p.g_cos = c.g_cos(m.gravity);

@@ -255,7 +255,9 @@ bool NdamSolver::fluid(int gi, int k) const {
 bool NdamSolver::p_unknown(int gi, int k) const {
   // With the pressure of eq. (26) imposed at a 1D-to-2D interface, the material cells of the
   // inflow column are Dirichlet cells too.
-  if (cfg_.inflow_pressure && gi == 0 && !cfg_.periodic_x() && fluid(gi, k)) return false;
+  if (cfg_.inflow_pressure == InflowPressure::Dirichlet && gi == 0 && !cfg_.periodic_x() &&
+      fluid(gi, k))
+    return false;
   return gflag(gi, k) == CellFlag::Fluid;
 }
 
@@ -315,13 +317,18 @@ NdamSolver::Ref NdamSolver::u_ref(int i, int k) const {
       }
       if (!cfg_.periodic_x() && gi >= nx - 1) {
         if (cfg_.outflow_right) {
-          // zero gradient: the open face copies the last interior face, when that face is a
-          // material face. When it is not (the last column holds material, e.g. a splash, with
-          // Empty cells upstream), the interior face itself takes its value from this face
-          // (free-surface continuation, surface_face_ref): the open face keeps its value.
-          if (u_unknown(nx - 2 - slab_.i0, k)) return u_ref(nx - 2 - slab_.i0, k);
-          r.a = 1.0;
-          return r;
+          // Zero gradient. Fix (issue 5): when the last column holds a Surface cell whose left
+          // neighbour is empty (the tail of a layer leaving through the open end), that cell's
+          // left face follows this one (surface_face_ref) and this one followed it back: an
+          // endless recursion (stack overflow once the front had left a chute). Such a face
+          // keeps its value, like the other known faces of an empty region.
+          if (!fluid(nx - 2, k) && fluid(nx - 1, k)) {
+            r.a = 1.0;
+            return r;
+          }
+          Ref m = u_ref(nx - 2 - slab_.i0, k);
+          m.b += outflow_slope(k);
+          return m;
         }
         return r;  // rigid wall: u = 0
       }
@@ -474,7 +481,8 @@ void NdamSolver::boundary_faces(Field& u, Field& w) const {
       }
     if (slab_.i0 + nxl == cfg_.grid.nx)
       for (int k = -1; k <= nz; ++k) {
-        const double v = cfg_.free_surface && cfg_.outflow_right ? u(nxl - 2, k) : 0.0;
+        const double v =
+            cfg_.free_surface && cfg_.outflow_right ? u(nxl - 2, k) + outflow_slope(k) : 0.0;
         u(nxl - 1, k) = u(nxl, k) = u(nxl + 1, k) = v;
       }
   }
@@ -523,16 +531,25 @@ void NdamSolver::fill_scalar_ghosts(Field& s) const {
 // ---------------------------------------------------------------------------------------------
 // Free surface (marker-and-cell, NaSt2D ch. 7)
 // ---------------------------------------------------------------------------------------------
-// Inflow velocity of row k of the gate opening 0 <= z < h_in, as the flux-equivalent face value
-// u(-1,k) = (1/dz) int_{row k, z < h_in} u_in(z) dz (a face only partly below h_in carries the
-// flux of its open part). Uniform: u_in(z) = u_in. CopyInterior (eq. 25): the shape of the first
-// interior column u(0,k) over the opening, scaled so that its mean over [0, h_in] is u_in.
+// Inflow velocity of row k of the gate opening 0 <= z < h_in: the material velocity of the row
+// (u_in(z) on its open part), like every face of a partly filled Surface cell inside the box; the
+// mass that enters is the markers' (accept(): each row's open part times its face value, so the
+// total is h_in u_mean). Uniform: u_in(z) = u_in. CopyInterior (eq. 25): the shape of the first
+// interior column u(0,k), scaled so that its mean over the opening [0, h_in] is u_in.
+// Fix (issue 5): the face value used to be flux-equivalent, u_in times the open part of the
+// face. A row only partly below h_in is the top material row, and the interior faces of such a
+// row carry the full material velocity, so the gate slowed the top row down; with CopyInterior
+// the slowed row came back through the copied shape at every step and was slowed again, which
+// turned the profile over (measured in Setup I coupled at 5 mm: u = 2.78 / 1.76 m/s in the two
+// rows of the first 2D column behind x = 0.7 m against a plug of 2.56 / 2.58 m/s in full 2D, and
+// the downstream 2D part 3 % slow). Openings on cell boundaries (the shipped silo gates) are
+// unchanged.
 double NdamSolver::inflow_face(int k) const {
   const double h = inflow_now_[0], um = inflow_now_[1], dz = cfg_.grid.dz();
   if (!(h > 0.0)) return 0.0;
   const double open = std::clamp((h - k * dz) / dz, 0.0, 1.0);
   if (open <= 0.0) return 0.0;
-  if (cfg_.inflow_shape == InflowShape::Uniform || slab_.i0 != 0) return um * open;
+  if (cfg_.inflow_shape == InflowShape::Uniform || slab_.i0 != 0) return um;
   // shape from column 0 (this rank owns it): mean of the shape over the opening
   double q = 0.0;
   for (int kk = 0; kk < cfg_.grid.nz; ++kk) {
@@ -541,18 +558,37 @@ double NdamSolver::inflow_face(int k) const {
     q += o * dz * u_(0, kk);
   }
   const double mean = q / h;
-  if (!(std::abs(mean) > 1e-12)) return um * open;  // no shape yet (empty column): uniform
-  return um * open * u_(0, k) / mean;
+  if (!(std::abs(mean) > 1e-12)) return um;  // no shape yet (empty column): uniform
+  return um * u_(0, k) / mean;
+}
+
+// Lagged gradient continued through an open outflow (NdamConfig::outflow_extrapolate): the
+// difference of the last two interior faces of row k in the current state u_, where both are
+// material faces; 0 otherwise (zero gradient) and on ranks that do not own the end.
+double NdamSolver::outflow_slope(int k) const {
+  const int nx = cfg_.grid.nx, i = nx - 2 - slab_.i0;
+  if (!cfg_.outflow_extrapolate || slab_.i0 + slab_.nx_local != nx || i - 1 < -Field::G) return 0.0;
+  if (!u_unknown(i, k) || !u_unknown(i - 1, k)) return 0.0;
+  return u_(i, k) - u_(i - 1, k);
+}
+
+// eq. (26): p = g cos(zeta) (h - z) (1 + K) / 2 with h the inflow depth, at the row's centre
+double NdamSolver::inflow_p26(int k) const {
+  const double z = (k + 0.5) * cfg_.grid.dz();
+  return std::abs(phys_.gz) * std::max(0.0, inflow_now_[0] - z) * (1.0 + cfg_.inflow_K) / 2.0;
 }
 
 void NdamSolver::set_inflow(std::function<std::array<double, 2>(double t)> provider,
-                            InflowShape shape, bool impose_pressure, double K) {
+                            InflowShape shape, InflowPressure pressure, double K,
+                            InflowMass mass) {
   if (!cfg_.free_surface || cfg_.periodic_x())
     throw params::InputError("N-DAM: an inflow needs 'Free surface' = true and a non-periodic box");
   cfg_.inflow = std::move(provider);
   cfg_.inflow_shape = shape;
-  cfg_.inflow_pressure = impose_pressure;
+  cfg_.inflow_pressure = pressure;
   cfg_.inflow_K = K;
+  inflow_mass_ = std::move(mass);
+  inflow_owed_ = inflow_owed_new_ = 0.0;
   inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
   flags_changed_ = true;  // the Dirichlet cells of eq. (26) may have changed
   fill_velocity_ghosts(u_, w_);
@@ -762,7 +798,11 @@ void NdamSolver::update_viscosity(const Field& p_yield) {
       const double d12 =
           0.125 * (shear(i, k) + shear(i - 1, k) + shear(i, k - 1) + shear(i - 1, k - 1));
       const double normD = std::sqrt(2.0 * (d11 * d11 + d22 * d22 + 2.0 * d12 * d12));
-      nu_(i, k) = rheo_.nu_eff(normD, p_yield(i, k));
+      // the inflow column of a 1D-to-2D interface (InflowPressure::Rheology): tau_y from the
+      // pressure of eq. (26), the 1D side's pressure at x_IF
+      const bool p26 = cfg_.inflow_pressure == InflowPressure::Rheology && slab_.i0 + i == 0 &&
+                       !cfg_.periodic_x();
+      nu_(i, k) = rheo_.nu_eff(normD, p26 ? inflow_p26(k) : p_yield(i, k));
       if (cfg_.free_surface) normD_(i, k) = normD;
     }
   fill_scalar_ghosts(nu_);
@@ -1235,6 +1275,21 @@ void NdamSolver::step(double dt) {
   if (cfg_.free_surface) {
     // the gate state of this step (lagged at t^n), the boundary faces with it
     inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
+    inflow_owed_new_ = inflow_owed_;
+    if (inflow_mass_) {
+      if (const auto m = inflow_mass_(t_, dt)) {
+        // Exact transfer: the step lets in what the upstream side let out (plus what earlier
+        // steps could not take). The velocity is capped at 1.5 |u_mean| + 0.1 m/s of the
+        // provider (the CFL condition of this step was set with that u_mean), and a depth below
+        // 0.1 mm takes nothing: the rest waits for the next steps.
+        const double target = *m + inflow_owed_, h = inflow_now_[0];
+        const double ucap = 1.5 * std::abs(inflow_now_[1]) + 0.1;
+        double u = 0.0;
+        if (h > 1e-4 && target > 0.0) u = std::min(target / (dt * h), ucap);
+        inflow_now_[1] = u;
+        inflow_owed_new_ = target - u * dt * h;
+      }
+    }
     fill_velocity_ghosts(u_, w_);
   }
   update_viscosity(p_);  // nu_eff(u^n, p^n), Coulomb ghost factors
@@ -1253,13 +1308,9 @@ void NdamSolver::step(double dt) {
       for (int k = 0; k < cfg_.grid.nz; ++k) {
         const CellFlag f = gflag(slab_.i0 + i, k);
         if (f == CellFlag::Surface || f == CellFlag::Empty) p_dir_(i, k) = ps(i, k) - p_(i, k);
-        if (cfg_.inflow_pressure && slab_.i0 + i == 0 && fluid(0, k)) {
-          // eq. (26): p = g cos(zeta) (h - z) (1 + K) / 2 with h the inflow depth
-          const double z = (k + 0.5) * cfg_.grid.dz();
-          const double p26 = std::abs(phys_.gz) * std::max(0.0, inflow_now_[0] - z) *
-                             (1.0 + cfg_.inflow_K) / 2.0;
-          p_dir_(i, k) = p26 - p_(i, k);
-        }
+        if (cfg_.inflow_pressure == InflowPressure::Dirichlet && slab_.i0 + i == 0 &&
+            fluid(0, k))
+          p_dir_(i, k) = inflow_p26(k) - p_(i, k);  // eq. (26) as the Dirichlet value
       }
     exchange(p_dir_);
     if (flags_changed_) {
@@ -1517,10 +1568,11 @@ void NdamSolver::accept() {
       const double dz = cfg_.grid.dz();
       for (int k = 0; k < cfg_.grid.nz; ++k) {
         const double open = std::clamp((inflow_now_[0] - k * dz) / dz, 0.0, 1.0);
-        if (open > 0.0) uf[static_cast<std::size_t>(k)] = u_(-1, k) / open;  // mean over the opening part
+        if (open > 0.0) uf[static_cast<std::size_t>(k)] = u_(-1, k);  // material velocity of the open part
       }
       markers_->inject(dt, inflow_now_[0], uf);
     }
+    inflow_owed_ = inflow_owed_new_;
     const MarkerMass mm = markers_->mass();
     transfer_.in = mm.injected_area - marker_mass_.injected_area;
     transfer_.out = mm.removed_area - marker_mass_.removed_area;
@@ -1727,7 +1779,18 @@ void NdamSolver::save(io::Checkpoint& c) const {
     c.set("ndam/markers_injected", static_cast<double>(marker_mass_.injected));
     c.set("ndam/markers_removed", static_cast<double>(marker_mass_.removed));
     c.set("ndam/mass0", mass0_);
+    c.set("ndam/inflow_owed", inflow_owed_);
   }
+}
+
+double NdamSolver::inflow_pending() const {
+  if (!markers_) return 0.0;
+  double acc = 0.0;
+  if (slab_.i0 == 0)
+    for (double a : markers_->inflow_accumulators()) acc += a;
+  double all = 0.0;
+  MPI_Allreduce(&acc, &all, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  return inflow_owed_ + all * markers_->marker_area();
 }
 
 void NdamSolver::load(const io::Checkpoint& c) {
@@ -1765,6 +1828,8 @@ void NdamSolver::load(const io::Checkpoint& c) {
     st.removed = slab_.rank == 0 ? static_cast<long long>(c.scalar("ndam/markers_removed")) : 0;
     markers_->load(st);
     mass0_ = c.scalar("ndam/mass0");
+    if (c.scalars().count("ndam/inflow_owed")) inflow_owed_ = c.scalar("ndam/inflow_owed");
+    inflow_owed_new_ = inflow_owed_;
     marker_mass_ = markers_->mass();
     update_flags_from_markers();
     if (cfg_.inflow) inflow_now_ = cfg_.inflow(t_);
@@ -1807,6 +1872,7 @@ void NdamSolver::report(nlohmann::json& s) const {
     s["ndam"]["markers"] = marker_mass_.count;
     s["ndam"]["marker_area"] = marker_mass_.area;
     s["ndam"]["seconds_markers_last_step"] = sec_mark_;
+    if (inflow_mass_) s["ndam"]["inflow_pending_area"] = inflow_pending();
   }
   // The nonlinear pressure system (Pressure coupling = Nonlinear): Newton and Krylov (GMRES)
   // iterations per step, residual evaluations (each one predictor-projection).

@@ -62,6 +62,12 @@ granflow_cli_test(coupled_2d_without_free_surface 2 "Left boundary->Type' = Infl
 granflow_cli_test(coupled_count_mismatch 2 "Decomposition->Models.*one entry more than 'Interfaces'"
                   ${_cli}/bad_coupled_count.xml)
 granflow_cli_test(coupled_bad_kind 2 "Models.*3D" ${_cli}/bad_coupled_kind.xml)
+# a 1D bed friction angle (delta_1D) above phi
+granflow_cli_test(coupled_delta1d_above_phi 2 "DAM->Bed friction angle' = 34.*must not exceed.*Internal friction angle = 33"
+                  ${_cli}/bad_delta1d_above_phi.xml)
+# decreasing interface positions (equal ones are allowed: a zero-length subdomain is left out)
+granflow_cli_test(coupled_interfaces_decrease 2 "Decomposition->Interfaces.*0.7, 0.2.*must not decrease"
+                  ${_cli}/bad_coupled_order.xml)
 
 # coupled 2D/1D/2D against full 2D (Setup II, coarse)
 add_test(NAME coupled.setup2_against_full_2d

@@ -17,25 +17,27 @@ if(NOT code EQUAL 0)
   message(FATAL_ERROR "granflow-study compare exited with ${code}")
 endif()
 # Velocity averaged over [0, 0.2] m (the paper's Fig. 14 measure, around the 2D-1D interface):
-# measured 0.48 % (t = 0.25 s) and 0.64 % (t = 0.5 s); the paper reports a few per cent for
-# interfaces at x_IF >= 4 cm. Asserted 2 %.
+# measured 0.11 % (t = 0.25 s) and 0.22 % (t = 0.5 s) (0.48 / 0.64 % before the 2D side of the
+# 2D-to-1D interface continued the velocity gradient at its outflow, issue 5); the paper reports a
+# few per cent for interfaces at x_IF >= 4 cm. Asserted 1 %.
 file(STRINGS coupled_check_cmp/average_velocity.csv rows REGEX "^0\\.")
 foreach(r ${rows})
   string(REPLACE "," ";" f "${r}")
   list(GET f 3 rel)
-  if(rel GREATER 0.02)
-    message(FATAL_ERROR "averaged velocity error ${rel} > 2 % (${r})")
+  if(rel GREATER 0.01)
+    message(FATAL_ERROR "averaged velocity error ${rel} > 1 % (${r})")
   endif()
 endforeach()
-# Mean velocity over the flowing channel, L2 ratio: measured 1.5 % at 0.25 s and 7.1 % at 0.5 s,
-# where most of it sits at the front, which the 1D and 2D models shape differently (the paper's
-# explanation of its Fig. 14 early-time errors). Asserted 12 %: a broken interface (reflection,
-# lost inflow) gives O(1) errors behind the 1D-2D interface.
+# Mean velocity over the flowing channel, L2 ratio: measured 1.0 % at 0.25 s and 2.0 % at 0.5 s
+# (7.1 % at 0.5 s before the fixes of the interfaces, issue 5), where
+# most of it sits at the front, which the 1D and 2D models shape differently (the paper's
+# explanation of its Fig. 14 early-time errors). Asserted 5 %: a broken interface (reflection,
+# lost inflow, the slowed top row) gives errors of 7 % to O(1) behind the 1D-2D interface.
 file(STRINGS coupled_check_cmp/compare_errors.csv rows REGEX "^0\\.[0-9]*,u_mean,")
 foreach(r ${rows})
   string(REPLACE "," ";" f "${r}")
   list(GET f 3 l2)
-  if(l2 GREATER 0.12)
-    message(FATAL_ERROR "u_mean L2 error ${l2} > 12 % (${r})")
+  if(l2 GREATER 0.05)
+    message(FATAL_ERROR "u_mean L2 error ${l2} > 5 % (${r})")
   endif()
 endforeach()

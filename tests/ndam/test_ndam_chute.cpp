@@ -190,7 +190,7 @@ TEST(NdamChute, GateInflowTransferAndInterfaceApi) {
   // 1D-to-2D interface mode: {h, u} from a provider, eq. (26) pressure on the inflow column
   const double K = 1.5;
   s->set_inflow([](double) { return std::array<double, 2>{0.04, 0.5}; },
-                ndam::InflowShape::CopyInterior, true, K);
+                ndam::InflowShape::CopyInterior, ndam::InflowPressure::Dirichlet, K);
   for (int n = 0; n < 5; ++n) {
     s->step(std::min(s->stable_dt(), 0.002));
     ASSERT_TRUE(s->check().ok);

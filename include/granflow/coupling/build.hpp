@@ -39,11 +39,13 @@ struct TwoD {
 /// InputError. Interfaces (flow from left to right):
 ///   1D | 1D  both sides' ghosts sample the neighbour (DamSolver::sample);
 ///   2D -> 1D the 1D ghosts take {h, u_mean} of the 2D column where they lie (eqs. 19-21); the
-///            2D side is an open outflow;
-///   1D -> 2D the 2D inflow takes {h, u_mean} of the 1D reconstruction at x_IF (eq. 24), the
-///            profile shape of the first interior 2D column (eq. 25), p of eq. (26) with
-///            K = K_act, w from continuity (27), markers injected up to h; the 1D ghosts beyond
-///            x_IF read the 2D columns.
+///            2D side is an open outflow continuing the lagged velocity gradient;
+///   1D -> 2D the 2D inflow takes h of the 1D reconstruction at x_IF and exactly the mass the
+///            DAM lets out in the step (eq. 24), the profile shape of the first interior 2D
+///            column (eq. 25), p of eq. (26) with K = K_act as set by d.interface_pressure,
+///            w from continuity (27), markers injected up to h; the 1D ghosts beyond x_IF read
+///            the 2D columns.
+/// Zero-length subdomains are left out first (Decomposition::normalised).
 std::unique_ptr<CoupledModel> build(const Decomposition& d, const core::Material& m,
                                     const core::Channel& c, const dam::DamConfig& cfg,
                                     const DamInitialiser& init, const TwoD* two_d = nullptr);

@@ -29,17 +29,24 @@ namespace granflow::coupling {
 /// "Decomposition" sublist: the sequence of models along the channel and the interfaces.
 struct Decomposition {
   std::vector<std::string> models;  ///< "1D" or "2D" per subdomain, upstream first
-  std::vector<double> interfaces;   ///< interior interface positions [m], increasing
+  std::vector<double> interfaces;   ///< interface positions [m], non-decreasing in [0, L]
   std::string layout = "Static";    ///< "Static" or "A priori"
   double eps_threshold = 0.1;       ///< a priori: 2D where eps = 1/Fr^2 >= this
   double margin = 0.05;             ///< a priori: widening of each 2D region [m]
   double min_length = 0.05;         ///< a priori: shortest subdomain kept [m]
+  /// 1D-to-2D interfaces: how the pressure of eq. (26) enters the 2D inflow column
+  /// ("Rheology", "Dirichlet" or "None"; see ndam::InflowPressure).
+  std::string interface_pressure = "Rheology";
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
   static Decomposition from_parameters(const Teuchos::ParameterList& pl,
                                        const core::Channel& channel);
   /// [x0, x1] of subdomain i on a channel of length L.
   std::array<double, 2> extent(std::size_t i, double length) const;
+  /// The layout that is built on a channel of length L: subdomains of zero length (equal
+  /// neighbouring 'Interfaces', or one at 0 or L) left out, and neighbours of the same model
+  /// that then touch merged into one subdomain. {2D, 1D, 2D} with {a, a} is the full 2D model.
+  Decomposition normalised(double length) const;
 };
 
 /// One subdomain: its model and how the coupling reads and feeds it.

@@ -23,6 +23,7 @@
 
 #include <array>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -39,9 +40,15 @@ struct DamConfig {
   EarthPressure earth_pressure = EarthPressure::SavageHutter;
   double k_smoothing = 0.1;  ///< [1/s] width of the tanh switch of K at u_x = 0
   double dry_depth = 1e-6;   ///< [m] below this depth a cell is dry: u = 0
+  /// delta_1D [deg]: bed friction angle of the DAM when it differs from the Material's (the
+  /// paper's Fig. 12 study); negative: the Material's 'Bed friction angle'.
+  double bed_friction_deg = -1.0;
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
   static DamConfig from_parameters(const Teuchos::ParameterList& pl);
+  /// The material the DAM sees: `m` with the bed friction angle of this config if it is set.
+  /// Throws InputError (naming 'DAM->Bed friction angle') if that exceeds phi.
+  core::Material material(const core::Material& m) const;
 };
 
 /// The physical coefficients the DAM needs, from Material and Channel.
@@ -117,6 +124,18 @@ class DamSolver final : public core::Stepper {
   /// Mass [m^2] that entered through the left end and left through the right end in the last
   /// accepted step (exact ledger terms): what a neighbouring subdomain must give or receive.
   std::array<double, 2> last_transfer() const { return last_transfer_; }
+  /// The step that step() computed and accept() has not taken yet: it starts at t0, lasts dt,
+  /// and moves `in` into the left end and `out` out of the right end (the exact ledger terms
+  /// that accept() will book). Empty when no step is pending. A 2D subdomain downstream of a
+  /// 1D-to-2D interface injects exactly `out` in the same step (the coupled model steps the
+  /// subdomains upstream first).
+  struct PendingStep {
+    double t0 = 0.0, dt = 0.0, in = 0.0, out = 0.0;
+  };
+  std::optional<PendingStep> pending_step() const {
+    if (!(t_new_ > t_)) return std::nullopt;
+    return PendingStep{t_, t_new_ - t_, in_new_, out_new_};
+  }
   double x_left() const { return x0_; }
   double x_right() const { return x1_; }
 

@@ -44,6 +44,7 @@
 #include <array>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -62,6 +63,15 @@ enum class WallKind { NoSlip, FreeSlip, MovingLid, Periodic, Coulomb };
 ///  CopyInterior: the shape of the first interior 2D column u(0, z) scaled to the mean u_in
 ///                (eq. 25, d/dx d/dz u = 0; used by the 2D side of a 1D-to-2D interface).
 enum class InflowShape { Uniform, CopyInterior };
+/// How the pressure of eq. (26), p = g cos(zeta)(h - z)(1 + K)/2, enters at the inflow side.
+///  None:      not at all (a silo gate; the inflow column's pressure is solved like any other).
+///  Dirichlet: the paper's literal reading: the material cells of the inflow column are
+///             Dirichlet cells of the projection with that p, so continuity is not enforced
+///             there (measured: the 2D flow behind a 1D-to-2D interface decelerates).
+///  Rheology:  the inflow column stays in the projection (div u = 0, p solved); eq. (26) is the
+///             pressure its yield stress tau_y = tau_c + tau_p p sees (the 1D side's pressure
+///             at x_IF, where the 2D pressure is still adjusting to the injected state).
+enum class InflowPressure { None, Dirichlet, Rheology };
 
 /// Boundary condition of one side of the box. `velocity` is the tangential wall velocity of a
 /// moving lid (u on bottom/top, w on left/right).
@@ -96,10 +106,14 @@ struct NdamConfig {
   /// Silo gate at x = x0 (left side): {h_in, u_in} at time t; empty function: no inflow.
   std::function<std::array<double, 2>(double t)> inflow;
   InflowShape inflow_shape = InflowShape::Uniform;
-  /// Left side of the 2D box with the pressure of eq. (26) imposed on the inflow column.
-  bool inflow_pressure = false;
+  /// How the pressure of eq. (26) enters on the inflow column (see InflowPressure).
+  InflowPressure inflow_pressure = InflowPressure::None;
   double inflow_K = 1.0;  ///< earth pressure coefficient K of eq. (26)
   bool outflow_right = false;  ///< open outflow at x = x0 + L (else the Right wall)
+  /// Open outflow: u continues beyond the last interior face with the lagged (t^n) gradient of
+  /// the last two interior faces instead of zero gradient (the 2D side of a 2D-to-1D interface
+  /// inside an accelerating flow; the channel's own open end keeps zero gradient).
+  bool outflow_extrapolate = false;
   double m_c = 100.0;  ///< [s/m] regularisation of the Coulomb friction factor (12)
   double x0 = 0.0;     ///< grid origin along the slope [m] (2D subdomains of the coupled model)
 
@@ -178,9 +192,20 @@ class NdamSolver final : public core::Stepper {
   /// the column states are gathered on every rank at each accept().
   ColumnState column_state(double x) const;
   /// Replaces the inflow of the left side after construction: {h, u_mean} at time t, the
-  /// profile shape, and whether the inflow column gets the pressure of eq. (26).
+  /// profile shape, and how the pressure of eq. (26) with coefficient K enters (InflowPressure).
+  /// `mass` (optional): the area [m^2 per unit width] the inflow must let in during the step
+  /// [t, t + dt], when known (a 1D-to-2D interface: exactly what the DAM upstream lets out in
+  /// the same step). The step's inflow velocity is then that mass / (dt h) instead of the
+  /// provider's u_mean; what cannot enter in a step (a negative or dry-side transfer, or beyond
+  /// the cap on the velocity, see docs/numerics.md) is carried to the next steps.
+  using InflowMass = std::function<std::optional<double>(double t, double dt)>;
   void set_inflow(std::function<std::array<double, 2>(double t)> provider, InflowShape shape,
-                  bool impose_pressure = false, double K = 1.0);
+                  InflowPressure pressure = InflowPressure::None, double K = 1.0,
+                  InflowMass mass = nullptr);
+  /// Inflow area not yet in the box as markers (collective): the carried mass of `mass` above
+  /// plus the fractional marker accumulators of the gate. Injected area + this = the total of
+  /// the `mass` provider (to round-off) when one is set.
+  double inflow_pending() const;
   struct Transfer {
     double in = 0.0, out = 0.0;  ///< marker area [m^2] that entered at x0 / left at x1
   };
@@ -206,7 +231,9 @@ class NdamSolver final : public core::Stepper {
   void surface_pressure(Field& target) const;
   void apply_free_surface(Field& u, Field& w) const;
   void boundary_faces(Field& u, Field& w) const;
-  double inflow_face(int k) const;  // u(-1, k) of the gate (flux-equivalent for partial faces)
+  double inflow_face(int k) const;  // u(-1, k) of the gate (material velocity of the open rows)
+  double inflow_p26(int k) const;   // eq. (26) at the centre of row k of the inflow column
+  double outflow_slope(int k) const;  // lagged u difference of the last two faces (extrapolate)
   void update_profile_cache();
   bool u_unknown(int i, int k) const;  // u(i,k) an unknown: fluid on both sides, not a wall
   bool w_unknown(int i, int k) const;
@@ -253,6 +280,8 @@ class NdamSolver final : public core::Stepper {
   std::vector<double> bed_a_;    // Coulomb ghost factor of u(i,-1), local columns + G
   std::vector<double> wall_a_;   // Coulomb ghost factor of w(nx, k) at the right wall
   std::array<double, 2> inflow_now_{0.0, 0.0};  // {h_in, u_in} of the current step
+  InflowMass inflow_mass_;                        // exact mass of a step (1D-to-2D), optional
+  double inflow_owed_ = 0.0, inflow_owed_new_ = 0.0;  // carried inflow mass [m^2]
   std::vector<double> col_h_, col_u_, col_w_;  // column states of the whole box (every rank)
   Transfer transfer_;
   double mass0_ = 0.0;
