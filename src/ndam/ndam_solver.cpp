@@ -1655,6 +1655,8 @@ void NdamSolver::report(nlohmann::json& s) const {
       {"unconverged_solves", failed_solves_},
       {"pressure_preconditioner_setups", pressure_->preconditioner_setups()},
       {"pressure_preconditioner_setup_seconds", pressure_->preconditioner_setup_seconds()},
+      {"pressure_pattern_builds", pressure_->pattern_builds()},
+      {"momentum_pattern_builds", momentum_ ? momentum_->pattern_builds() : 0LL},
       {"momentum_preconditioner_setups", momentum_ ? momentum_->preconditioner_setups() : 0LL},
       {"momentum_preconditioner_setup_seconds",
        momentum_ ? momentum_->preconditioner_setup_seconds() : 0.0},

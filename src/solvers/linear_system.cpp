@@ -385,6 +385,16 @@ RCP<OP> build_preconditioner(const RCP<Matrix>& A, const ParameterList& p) {
   RCP<const Tpetra::RowMatrix<SC>> Arow = A;
   auto P = factory.create<Tpetra::RowMatrix<SC>>(kind, Arow);
   ParameterList ip = p.sublist("Ifpack2");
+  if (kind == "RELAXATION") {
+    // Only the relaxation's own parameters (Relaxation validates its list; the sublist's
+    // default holds RILUK's level of fill), and symmetric Gauss-Seidel unless told otherwise:
+    // Ifpack2's default, Jacobi, is a poor preconditioner and CG needs a symmetric one.
+    ParameterList rp("Ifpack2");
+    rp.set("relaxation: type", "Symmetric Gauss-Seidel");
+    for (auto it = ip.begin(); it != ip.end(); ++it)
+      if (ip.name(it).rfind("relaxation:", 0) == 0) rp.setEntry(ip.name(it), ip.entry(it));
+    ip = rp;
+  }
   P->setParameters(ip);
   P->initialize();
   P->compute();
