@@ -113,6 +113,7 @@ struct LinearSystem::Impl {
   GO rglobal = 0;                   // kept rows on all ranks
   int block = 1;                    // MueLu's "number of equations": rows kept in blocks
   void compress_rows(std::vector<size_t>& start, std::vector<GO>& cols, std::vector<SC>& vals);
+  RCP<MueLu::HierarchyManager<SC, LO, GO, Map::node_type>> muelu;  // cached interpreter
   long long pattern_builds = 0;     // graphs built (the pattern changed)
   long long prec_setups = 0;        // preconditioners built
   double prec_setup_seconds = 0.0;  // their total setup time
@@ -370,14 +371,48 @@ void LinearSystem::end() {
 }
 
 namespace {
-RCP<OP> build_preconditioner(const RCP<Matrix>& A, const ParameterList& p) {
+using NO = Map::node_type;
+using MueLuManager = MueLu::HierarchyManager<SC, LO, GO, NO>;
+
+// MueLu's interpreter lowers its number of levels to the levels of the last hierarchy it set up
+// (meant for reusing that hierarchy); set up from scratch each time, every hierarchy may again
+// use the configured number (a first, tiny matrix would otherwise leave one level for good).
+using MueLuInterpreter = MueLu::ParameterListInterpreter<SC, LO, GO, NO>;
+using MueLuHierarchy = MueLu::Hierarchy<SC, LO, GO, NO>;
+class FreshLevelsInterpreter : public MueLuInterpreter {
+ public:
+  FreshLevelsInterpreter(Teuchos::ParameterList& pl,
+                         Teuchos::RCP<const Teuchos::Comm<int>> comm)
+      : MueLuInterpreter(pl, comm), levels_(this->numDesiredLevel_) {}
+  void SetupHierarchy(MueLuHierarchy& H) const override {
+    this->numDesiredLevel_ = levels_;
+    MueLuInterpreter::SetupHierarchy(H);
+  }
+
+ private:
+  int levels_;
+};
+
+// `manager` caches MueLu's interpretation of the parameter list: MueLu::CreateTpetraPreconditioner
+// parses and validates the list and builds its factories in every call, which took 45 % of the
+// N-DAM chute's run time at 5 mm (a new preconditioner in every step). The same interpreter sets
+// up each new hierarchy, as CreateXpetraPreconditioner does with a fresh one.
+RCP<OP> build_preconditioner(const RCP<Matrix>& A, const ParameterList& p,
+                             RCP<MueLuManager>& manager) {
   const auto type = p.get<std::string>("Preconditioner");
   if (type == "None") return Teuchos::null;
   if (type == "MueLu") {
-    ParameterList ml = p.sublist("MueLu");
-    RCP<OP> Aop = A;
-    auto M = MueLu::CreateTpetraPreconditioner(Aop, ml);
-    return M;
+    if (manager.is_null()) {
+      ParameterList ml = p.sublist("MueLu");
+      manager = rcp(new FreshLevelsInterpreter(ml, A->getDomainMap()->getComm()));
+    }
+    auto xA = MueLu::TpetraCrs_To_XpetraMatrix<SC, LO, GO, NO>(A);
+    RCP<MueLu::Hierarchy<SC, LO, GO, NO>> H = manager->CreateHierarchy();
+    H->setlib(Xpetra::UseTpetra);
+    H->GetLevel(0)->Set("A", xA);
+    H->SetProcRankVerbose(A->getDomainMap()->getComm()->getRank());
+    manager->SetupHierarchy(*H);
+    return rcp(new MueLu::TpetraOperator<SC, LO, GO, NO>(H));
   }
   // Ifpack2: "Ifpack2 RILUK" -> RILUK, "Ifpack2 RELAXATION" -> RELAXATION, ...
   const std::string kind = type.substr(type.find(' ') + 1);
@@ -421,7 +456,7 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   auto t0 = Clock::now();
   const bool fresh = m.prec_stale;
   if (m.prec_stale) {
-    m.prec = build_preconditioner(m.A, m.params);
+    m.prec = build_preconditioner(m.A, m.params, m.muelu);
     m.prec_stale = false;
     m.prec_age = 0;
     st.setup_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
