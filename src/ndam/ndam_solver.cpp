@@ -1867,6 +1867,13 @@ void NdamSolver::report(nlohmann::json& s) const {
       {"momentum_krylov_iterations_per_solve", avg(m_iters_, m_solves_)},
       {"momentum_worst_relative_residual", worst_m_res_},
       {"unconverged_solves", failed_solves_},
+      {"pressure_preconditioner_setups", pressure_->preconditioner_setups()},
+      {"pressure_preconditioner_setup_seconds", pressure_->preconditioner_setup_seconds()},
+      {"pressure_pattern_builds", pressure_->pattern_builds()},
+      {"momentum_pattern_builds", momentum_ ? momentum_->pattern_builds() : 0LL},
+      {"momentum_preconditioner_setups", momentum_ ? momentum_->preconditioner_setups() : 0LL},
+      {"momentum_preconditioner_setup_seconds",
+       momentum_ ? momentum_->preconditioner_setup_seconds() : 0.0},
       {"free_surface", cfg_.free_surface}};
   if (cfg_.free_surface) {
     s["ndam"]["markers"] = marker_mass_.count;

@@ -100,6 +100,23 @@ struct LinearSystem::Impl {
   int fresh_iters = -1;  // iterations of the first solve with a fresh preconditioner
   int last_iters = 0;
   bool last_converged = true;
+  // Trivial rows (a single nonzero diagonal entry, not referenced by another row: identity rows
+  // of fixed faces, Dirichlet and empty cells) are solved as x = b / d and left out of the
+  // Krylov system, which then holds only the coupled rows (in the N-DAM chute: the cells with
+  // material). rmap numbers the kept rows contiguously, rank by rank.
+  MPI_Comm raw_comm = MPI_COMM_NULL;
+  std::vector<GO> rank_first;       // first global row of each rank, and the total at the end
+  std::vector<LO> kept;             // local rows in the Krylov system, ascending
+  std::vector<SC> trivial_diag;     // per local row: d of a trivial row, 0 for a kept row
+  RCP<const Map> rmap;              // map of the kept rows
+  GO rfirst = 0;                    // first global index of this rank's kept rows in rmap
+  GO rglobal = 0;                   // kept rows on all ranks
+  int block = 1;                    // MueLu's "number of equations": rows kept in blocks
+  void compress_rows(std::vector<size_t>& start, std::vector<GO>& cols, std::vector<SC>& vals);
+  RCP<MueLu::HierarchyManager<SC, LO, GO, Map::node_type>> muelu;  // cached interpreter
+  long long pattern_builds = 0;     // graphs built (the pattern changed)
+  long long prec_setups = 0;        // preconditioners built
+  double prec_setup_seconds = 0.0;  // their total setup time
 };
 
 LinearSystem::LinearSystem(MPI_Comm comm, long long global_rows, long long first_row,
@@ -116,9 +133,26 @@ LinearSystem::LinearSystem(MPI_Comm comm, long long global_rows, long long first
                       static_cast<size_t>(local_rows), 0, m.comm));
   if (m.map->getMinGlobalIndex() != first_row && local_rows > 0)
     throw std::logic_error("LinearSystem: rows must be numbered in rank order");
+  m.raw_comm = comm;
+  if (m.params.get<std::string>("Preconditioner") == "MueLu" &&
+      m.params.sublist("MueLu").isParameter("number of equations")) {
+    m.block = m.params.sublist("MueLu").get<int>("number of equations");
+    if (m.block < 1 || local_rows % m.block != 0 || first_row % m.block != 0) m.block = 1;
+  }
+  int ranks = 1;
+  MPI_Comm_size(comm, &ranks);
+  std::vector<long long> firsts(static_cast<size_t>(ranks));
+  long long my_first = first_row;
+  MPI_Allgather(&my_first, 1, MPI_LONG_LONG, firsts.data(), 1, MPI_LONG_LONG, comm);
+  m.rank_first.assign(firsts.begin(), firsts.end());
+  m.rank_first.push_back(global_rows);
 }
 
 LinearSystem::~LinearSystem() = default;
+
+long long LinearSystem::preconditioner_setups() const { return impl_->prec_setups; }
+double LinearSystem::preconditioner_setup_seconds() const { return impl_->prec_setup_seconds; }
+long long LinearSystem::pattern_builds() const { return impl_->pattern_builds; }
 
 long long LinearSystem::global_rows() const {
   return static_cast<long long>(impl_->map->getGlobalNumElements());
@@ -134,6 +168,127 @@ void LinearSystem::add(long long row, long long col, double v) {
   const long long lr = row - impl_->first;
   if (lr < 0 || lr >= impl_->nlocal) throw std::logic_error("LinearSystem::add: row not owned");
   impl_->rows[static_cast<size_t>(lr)].emplace_back(col, v);
+}
+
+// Splits the assembled rows (CSR in the original numbering) into trivial rows and the kept
+// rows, and renumbers the kept rows and their columns for rmap. A trivial row that another row
+// references stays in the system (its coupling is not moved to the right-hand side); the
+// models move such couplings to the right-hand side themselves, so this does not happen in
+// the N-DAM and is only a safeguard. Collective.
+void LinearSystem::Impl::compress_rows(std::vector<size_t>& start, std::vector<GO>& cols,
+                                       std::vector<SC>& vals) {
+  const size_t n = static_cast<size_t>(nlocal);
+  trivial_diag.assign(n, 0.0);
+  std::vector<char> keep(n, 1);
+  for (size_t i = 0; i < n; ++i)
+    if (start[i + 1] - start[i] == 1 && cols[start[i]] == first + static_cast<GO>(i) &&
+        vals[start[i]] != 0.0) {
+      keep[i] = 0;
+      trivial_diag[i] = vals[start[i]];
+    }
+  // References to trivial rows: local ones directly, remote ones by asking their owners.
+  const int ranks = static_cast<int>(rank_first.size()) - 1;
+  auto owner = [&](GO g) {
+    return static_cast<int>(std::upper_bound(rank_first.begin(), rank_first.end() - 1, g) -
+                            rank_first.begin()) - 1;
+  };
+  std::vector<std::vector<GO>> ask(static_cast<size_t>(ranks));
+  for (size_t i = 0; i < n; ++i) {
+    if (!keep[i]) continue;
+    for (size_t q = start[i]; q < start[i + 1]; ++q) {
+      const GO c = cols[q];
+      if (c >= first && c < first + nlocal) keep[static_cast<size_t>(c - first)] = 1;
+      else ask[static_cast<size_t>(owner(c))].push_back(c);
+    }
+  }
+  for (auto& a : ask) {
+    std::sort(a.begin(), a.end());
+    a.erase(std::unique(a.begin(), a.end()), a.end());
+  }
+  std::vector<GO> asked;  // the rows other ranks reference, by rank
+  std::vector<int> scount(static_cast<size_t>(ranks)), rcount(scount.size()),
+      sdispl(scount.size()), rdispl(scount.size());
+  std::vector<GO> sendbuf;
+  if (ranks > 1) {
+    for (int r = 0; r < ranks; ++r) {
+      scount[static_cast<size_t>(r)] = static_cast<int>(ask[static_cast<size_t>(r)].size());
+      sdispl[static_cast<size_t>(r)] = static_cast<int>(sendbuf.size());
+      sendbuf.insert(sendbuf.end(), ask[static_cast<size_t>(r)].begin(),
+                     ask[static_cast<size_t>(r)].end());
+    }
+    MPI_Alltoall(scount.data(), 1, MPI_INT, rcount.data(), 1, MPI_INT, raw_comm);
+    int tot = 0;
+    for (int r = 0; r < ranks; ++r) {
+      rdispl[static_cast<size_t>(r)] = tot;
+      tot += rcount[static_cast<size_t>(r)];
+    }
+    asked.resize(static_cast<size_t>(tot));
+    MPI_Alltoallv(sendbuf.data(), scount.data(), sdispl.data(), MPI_LONG_LONG, asked.data(),
+                  rcount.data(), rdispl.data(), MPI_LONG_LONG, raw_comm);
+    for (GO g : asked) keep[static_cast<size_t>(g - first)] = 1;
+  }
+  // MueLu's "number of equations" b > 1 (the N-DAM momentum: u and w of a cell interleaved)
+  // needs whole blocks of b rows: a block stays when one of its rows stays.
+  if (block > 1)
+    for (size_t i0 = 0; i0 + static_cast<size_t>(block) <= n; i0 += static_cast<size_t>(block)) {
+      char any = 0;
+      for (int j = 0; j < block; ++j) any |= keep[i0 + static_cast<size_t>(j)];
+      for (int j = 0; j < block; ++j) keep[i0 + static_cast<size_t>(j)] = any;
+    }
+  // New numbering: the kept rows of rank 0, then those of rank 1, ...
+  std::vector<GO> newid(n, -1);
+  kept.clear();
+  for (size_t i = 0; i < n; ++i)
+    if (keep[i]) {
+      trivial_diag[i] = 0.0;
+      kept.push_back(static_cast<LO>(i));
+    }
+  long long nk = static_cast<long long>(kept.size()), offset = 0, total = 0;
+  MPI_Exscan(&nk, &offset, 1, MPI_LONG_LONG, MPI_SUM, raw_comm);
+  MPI_Allreduce(&nk, &total, 1, MPI_LONG_LONG, MPI_SUM, raw_comm);
+  int me = 0;
+  MPI_Comm_rank(raw_comm, &me);
+  if (me == 0) offset = 0;  // MPI_Exscan leaves rank 0's result undefined
+  for (size_t q = 0; q < kept.size(); ++q) newid[static_cast<size_t>(kept[q])] = offset + static_cast<GO>(q);
+  // Remote columns: the owners answer with the new numbers of the rows they were asked for.
+  std::vector<GO> remote_old, remote_new;
+  if (ranks > 1) {
+    std::vector<GO> answer(asked.size());
+    for (size_t q = 0; q < asked.size(); ++q) answer[q] = newid[static_cast<size_t>(asked[q] - first)];
+    remote_new.resize(sendbuf.size());
+    MPI_Alltoallv(answer.data(), rcount.data(), rdispl.data(), MPI_LONG_LONG, remote_new.data(),
+                  scount.data(), sdispl.data(), MPI_LONG_LONG, raw_comm);
+    remote_old = sendbuf;  // sorted within each rank's block, blocks in rank order: sorted
+  }
+  auto renumber = [&](GO c) -> GO {
+    if (c >= first && c < first + nlocal) return newid[static_cast<size_t>(c - first)];
+    const auto it = std::lower_bound(remote_old.begin(), remote_old.end(), c);
+    return remote_new[static_cast<size_t>(it - remote_old.begin())];
+  };
+  // Kept rows only, columns renumbered (the numbering keeps the order, so rows stay sorted).
+  std::vector<size_t> kstart(kept.size() + 1, 0);
+  size_t w = 0;
+  for (size_t q = 0; q < kept.size(); ++q) {
+    const size_t i = static_cast<size_t>(kept[q]);
+    for (size_t p = start[i]; p < start[i + 1]; ++p, ++w) {
+      cols[w] = renumber(cols[p]);
+      vals[w] = vals[p];
+    }
+    kstart[q + 1] = w;
+  }
+  cols.resize(w);
+  vals.resize(w);
+  start = std::move(kstart);
+  // A new map when the kept rows changed anywhere (Map construction is collective).
+  int changed = rmap.is_null() || rfirst != offset || rglobal != total ||
+                static_cast<long long>(rmap->getNodeNumElements()) != nk;
+  int any_changed = 0;
+  MPI_Allreduce(&changed, &any_changed, 1, MPI_INT, MPI_MAX, raw_comm);
+  if (any_changed)
+    rmap = rcp(new Map(static_cast<Tpetra::global_size_t>(total), static_cast<size_t>(nk), 0,
+                       comm));
+  rfirst = offset;
+  rglobal = total;
 }
 
 // Rows are sorted and duplicates summed. When the sparsity pattern is the one of the previous
@@ -158,11 +313,18 @@ void LinearSystem::end() {
     }
     start[static_cast<size_t>(i) + 1] = cols.size();
   }
+  const std::vector<LO> old_kept = m.kept;
+  const GO old_rfirst = m.rfirst;
+  m.compress_rows(start, cols, vals);
   // Collective decision: a pattern that changed on one rank only (e.g. the free-surface flags
   // of one slab) must rebuild the graph and the preconditioner on every rank; a rank-local
   // decision left one rank setting up MueLu while the other solved (deadlock, found with the
   // N-DAM chute at np = 2).
-  const int same_local = !m.A.is_null() && start == m.row_start && cols == m.pattern ? 1 : 0;
+  const int same_local =
+      !m.A.is_null() && m.kept == old_kept && m.rfirst == old_rfirst &&
+              start == m.row_start && cols == m.pattern
+          ? 1
+          : 0;
   int same_all = 0;
   Teuchos::reduceAll<int, int>(*m.comm, Teuchos::REDUCE_MIN, same_local, Teuchos::outArg(same_all));
   const bool same = same_all == 1;
@@ -170,28 +332,34 @@ void LinearSystem::end() {
     // A new matrix on the old (static) graph: the old matrix stays intact for a lagged
     // preconditioner that still refers to it.
     auto A = rcp(new Matrix(m.A->getCrsGraph()));
-    for (LO i = 0; i < m.nlocal; ++i) {
+    const GO rfirst = m.rfirst;
+    for (LO i = 0; i < static_cast<LO>(m.kept.size()); ++i) {
       const auto b = start[static_cast<size_t>(i)], e = start[static_cast<size_t>(i) + 1];
-      A->replaceGlobalValues(m.first + i, Teuchos::ArrayView<const GO>(cols.data() + b, e - b),
+      A->replaceGlobalValues(rfirst + i, Teuchos::ArrayView<const GO>(cols.data() + b, e - b),
                              Teuchos::ArrayView<const SC>(vals.data() + b, e - b));
     }
     A->fillComplete();
     m.A = A;
   } else {
-    Teuchos::Array<size_t> nnz(static_cast<size_t>(m.nlocal));
-    for (LO i = 0; i < m.nlocal; ++i)
+    const LO nk = static_cast<LO>(m.kept.size());
+    const GO rfirst = m.rfirst;
+    Teuchos::Array<size_t> nnz(static_cast<size_t>(nk));
+    for (LO i = 0; i < nk; ++i)
       nnz[i] = start[static_cast<size_t>(i) + 1] - start[static_cast<size_t>(i)];
-    m.A = rcp(new Matrix(m.map, nnz()));
-    for (LO i = 0; i < m.nlocal; ++i) {
+    m.A = rcp(new Matrix(m.rmap, nnz()));
+    for (LO i = 0; i < nk; ++i) {
       const auto b = start[static_cast<size_t>(i)], e = start[static_cast<size_t>(i) + 1];
-      m.A->insertGlobalValues(m.first + i,
+      m.A->insertGlobalValues(rfirst + i,
                               Teuchos::ArrayView<const GO>(cols.data() + b, e - b),
                               Teuchos::ArrayView<const SC>(vals.data() + b, e - b));
     }
     m.A->fillComplete();
     m.row_start = std::move(start);
     m.pattern = std::move(cols);
-    m.prec = Teuchos::null;  // a preconditioner of another pattern cannot be reused
+    ++m.pattern_builds;
+    m.prec = Teuchos::null;  // a preconditioner of another pattern is not reused (measured:
+                             // lagged across free-surface flag changes it needs 2-3x the
+                             // iterations, and the rebuilds it saves are lost again)
   }
   // Lagged preconditioner: rebuild unless it is recent enough and still effective (the last
   // solve converged within 1.5 times the iterations of its first solve, plus 2).
@@ -203,14 +371,48 @@ void LinearSystem::end() {
 }
 
 namespace {
-RCP<OP> build_preconditioner(const RCP<Matrix>& A, const ParameterList& p) {
+using NO = Map::node_type;
+using MueLuManager = MueLu::HierarchyManager<SC, LO, GO, NO>;
+
+// MueLu's interpreter lowers its number of levels to the levels of the last hierarchy it set up
+// (meant for reusing that hierarchy); set up from scratch each time, every hierarchy may again
+// use the configured number (a first, tiny matrix would otherwise leave one level for good).
+using MueLuInterpreter = MueLu::ParameterListInterpreter<SC, LO, GO, NO>;
+using MueLuHierarchy = MueLu::Hierarchy<SC, LO, GO, NO>;
+class FreshLevelsInterpreter : public MueLuInterpreter {
+ public:
+  FreshLevelsInterpreter(Teuchos::ParameterList& pl,
+                         Teuchos::RCP<const Teuchos::Comm<int>> comm)
+      : MueLuInterpreter(pl, comm), levels_(this->numDesiredLevel_) {}
+  void SetupHierarchy(MueLuHierarchy& H) const override {
+    this->numDesiredLevel_ = levels_;
+    MueLuInterpreter::SetupHierarchy(H);
+  }
+
+ private:
+  int levels_;
+};
+
+// `manager` caches MueLu's interpretation of the parameter list: MueLu::CreateTpetraPreconditioner
+// parses and validates the list and builds its factories in every call, which took 45 % of the
+// N-DAM chute's run time at 5 mm (a new preconditioner in every step). The same interpreter sets
+// up each new hierarchy, as CreateXpetraPreconditioner does with a fresh one.
+RCP<OP> build_preconditioner(const RCP<Matrix>& A, const ParameterList& p,
+                             RCP<MueLuManager>& manager) {
   const auto type = p.get<std::string>("Preconditioner");
   if (type == "None") return Teuchos::null;
   if (type == "MueLu") {
-    ParameterList ml = p.sublist("MueLu");
-    RCP<OP> Aop = A;
-    auto M = MueLu::CreateTpetraPreconditioner(Aop, ml);
-    return M;
+    if (manager.is_null()) {
+      ParameterList ml = p.sublist("MueLu");
+      manager = rcp(new FreshLevelsInterpreter(ml, A->getDomainMap()->getComm()));
+    }
+    auto xA = MueLu::TpetraCrs_To_XpetraMatrix<SC, LO, GO, NO>(A);
+    RCP<MueLu::Hierarchy<SC, LO, GO, NO>> H = manager->CreateHierarchy();
+    H->setlib(Xpetra::UseTpetra);
+    H->GetLevel(0)->Set("A", xA);
+    H->SetProcRankVerbose(A->getDomainMap()->getComm()->getRank());
+    manager->SetupHierarchy(*H);
+    return rcp(new MueLu::TpetraOperator<SC, LO, GO, NO>(H));
   }
   // Ifpack2: "Ifpack2 RILUK" -> RILUK, "Ifpack2 RELAXATION" -> RELAXATION, ...
   const std::string kind = type.substr(type.find(' ') + 1);
@@ -218,6 +420,16 @@ RCP<OP> build_preconditioner(const RCP<Matrix>& A, const ParameterList& p) {
   RCP<const Tpetra::RowMatrix<SC>> Arow = A;
   auto P = factory.create<Tpetra::RowMatrix<SC>>(kind, Arow);
   ParameterList ip = p.sublist("Ifpack2");
+  if (kind == "RELAXATION") {
+    // Only the relaxation's own parameters (Relaxation validates its list; the sublist's
+    // default holds RILUK's level of fill), and symmetric Gauss-Seidel unless told otherwise:
+    // Ifpack2's default, Jacobi, is a poor preconditioner and CG needs a symmetric one.
+    ParameterList rp("Ifpack2");
+    rp.set("relaxation: type", "Symmetric Gauss-Seidel");
+    for (auto it = ip.begin(); it != ip.end(); ++it)
+      if (ip.name(it).rfind("relaxation:", 0) == 0) rp.setEntry(ip.name(it), ip.entry(it));
+    ip = rp;
+  }
   P->setParameters(ip);
   P->initialize();
   P->compute();
@@ -231,30 +443,42 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   if (static_cast<LO>(b.size()) != m.nlocal || static_cast<LO>(x.size()) != m.nlocal)
     throw std::logic_error("LinearSystem::solve: vector size does not match the local rows");
   SolveStats st;
+  // Trivial rows: x = b / d. The Krylov system holds the kept rows only.
+  for (LO i = 0; i < m.nlocal; ++i)
+    if (m.trivial_diag[static_cast<size_t>(i)] != 0.0)
+      x[static_cast<size_t>(i)] = b[static_cast<size_t>(i)] / m.trivial_diag[static_cast<size_t>(i)];
+  if (m.rglobal == 0) {
+    st.converged = true;
+    ++solves_;
+    return st;
+  }
+  const LO nk = static_cast<LO>(m.kept.size());
   auto t0 = Clock::now();
   const bool fresh = m.prec_stale;
   if (m.prec_stale) {
-    m.prec = build_preconditioner(m.A, m.params);
+    m.prec = build_preconditioner(m.A, m.params, m.muelu);
     m.prec_stale = false;
     m.prec_age = 0;
     st.setup_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+    ++m.prec_setups;
+    m.prec_setup_seconds += st.setup_seconds;
   }
   auto t1 = Clock::now();
-  auto B = rcp(new MV(m.map, 1));
-  auto X = rcp(new MV(m.map, 1));
+  auto B = rcp(new MV(m.rmap, 1));
+  auto X = rcp(new MV(m.rmap, 1));
   {
     auto bv = B->getDataNonConst(0);
     auto xv = X->getDataNonConst(0);
-    for (LO i = 0; i < m.nlocal; ++i) {
-      bv[i] = b[static_cast<size_t>(i)];
-      xv[i] = x[static_cast<size_t>(i)];
+    for (LO i = 0; i < nk; ++i) {
+      bv[i] = b[static_cast<size_t>(m.kept[static_cast<size_t>(i)])];
+      xv[i] = x[static_cast<size_t>(m.kept[static_cast<size_t>(i)])];
     }
   }
   // A zero right-hand side has the solution zero (Belos would report a 0/0 residual).
   Teuchos::Array<SC> bnorm(1);
   B->norm2(bnorm());
   if (bnorm[0] == 0.0) {
-    std::fill(x.begin(), x.end(), 0.0);
+    for (LO i = 0; i < nk; ++i) x[static_cast<size_t>(m.kept[static_cast<size_t>(i)])] = 0.0;
     st.converged = true;
     st.solve_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
     ++solves_;
@@ -295,7 +519,7 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   st.iterations = solver->getNumIters();
   // True relative residual (Belos' achievedTol is the preconditioned one for left
   // preconditioning).
-  MV R(m.map, 1);
+  MV R(m.rmap, 1);
   m.A->apply(*X, R);
   R.update(1.0, *B, -1.0);
   Teuchos::Array<SC> rnorm(1);
@@ -307,7 +531,7 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   m.last_converged = st.converged;
   {
     auto xv = X->getData(0);
-    for (LO i = 0; i < m.nlocal; ++i) x[static_cast<size_t>(i)] = xv[i];
+    for (LO i = 0; i < nk; ++i) x[static_cast<size_t>(m.kept[static_cast<size_t>(i)])] = xv[i];
   }
   st.solve_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
   total_iterations_ += st.iterations;

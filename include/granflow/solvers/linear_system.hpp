@@ -68,6 +68,10 @@ class LinearSystem {
   /// Totals since construction.
   long long total_iterations() const { return total_iterations_; }
   long long solves() const { return solves_; }
+  /// Preconditioners built, their total setup seconds, and sparsity graphs built.
+  long long preconditioner_setups() const;
+  double preconditioner_setup_seconds() const;
+  long long pattern_builds() const;
 
   /// Valid list of one linear solver: `name` is the list's name, `solver` and `preconditioner`
   /// the defaults ("CG" for symmetric positive definite systems).
