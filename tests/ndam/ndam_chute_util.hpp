@@ -82,4 +82,32 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   return std::make_unique<ndam::NdamSolver>(comm, cfg, rheo, ndam::NdamPhysics::from(m, ch));
 }
 
+/// Mean u over the material of the layer (the columns' u_mean weighted by their depth h).
+inline double layer_mean_u(const ndam::NdamSolver& s) {
+  const auto p = s.profile();
+  double sum = 0.0, hs = 0.0;
+  for (std::size_t q = 0; q < p.x.size(); ++q) {
+    sum += p.u_mean[q] * p.h[q];
+    hs += p.h[q];
+  }
+  return hs > 0.0 ? sum / hs : 0.0;
+}
+
+/// The silo gate (h_in = 4 cm, u_in = 0.37 m/s) feeding an empty 0.3 m Drucker-Prager chute
+/// with a Coulomb bed and end wall, 30 x 10 cells of 1 cm: the pressure changes in every step
+/// as the layer spreads, and the front crosses x = 0.15 m (the slab boundary at np = 2).
+inline FsCase gate_chute(const std::string& coupling = "Lagged") {
+  FsCase c;
+  c.nx = 30;
+  c.nz = 10;
+  c.lx = 0.3;
+  c.walls = {"No-slip", "Coulomb", "Coulomb", "Free-slip"};
+  c.left = "Inflow";
+  c.right = "Wall";
+  c.h_in = 0.04;
+  c.depth = 0.0;
+  c.coupling = coupling;
+  return c;
+}
+
 }  // namespace ndam_chute

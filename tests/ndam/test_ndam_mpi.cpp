@@ -116,16 +116,7 @@ TEST(NdamMpi, PeriodicSlopeFlow) {
 // in another cell; with the tolerance below such a flip would show as an O(0.1) difference.
 #include "ndam_chute_util.hpp"
 TEST(NdamMpi, FreeSurfaceChute) {
-  ndam_chute::FsCase c;
-  c.nx = 30;
-  c.nz = 10;
-  c.lx = 0.3;
-  c.lz = 0.1;
-  c.walls = {"No-slip", "Coulomb", "Coulomb", "Free-slip"};
-  c.left = "Inflow";
-  c.right = "Wall";
-  c.h_in = 0.04;
-  c.depth = 0.0;
+  const auto c = ndam_chute::gate_chute();
   auto par = ndam_chute::make_fs(c, MPI_COMM_WORLD);
   auto ser = ndam_chute::make_fs(c, MPI_COMM_SELF);
   for (int n = 0; n < 160; ++n) {  // the front crosses the slab boundary at x = 0.15 m
@@ -154,17 +145,7 @@ TEST(NdamMpi, FreeSurfaceChute) {
 // with expect_equal's tolerances after 60 steps (the front crosses the slab boundary later; the
 // Newton path is the thing under test here), and the same Newton iteration counts.
 TEST(NdamMpi, FreeSurfaceChuteNonlinearPressure) {
-  ndam_chute::FsCase c;
-  c.nx = 30;
-  c.nz = 10;
-  c.lx = 0.3;
-  c.lz = 0.1;
-  c.walls = {"No-slip", "Coulomb", "Coulomb", "Free-slip"};
-  c.left = "Inflow";
-  c.right = "Wall";
-  c.h_in = 0.04;
-  c.depth = 0.0;
-  c.coupling = "Nonlinear";
+  const auto c = ndam_chute::gate_chute("Nonlinear");
   auto par = ndam_chute::make_fs(c, MPI_COMM_WORLD);
   auto ser = ndam_chute::make_fs(c, MPI_COMM_SELF);
   long long its_par = 0, its_ser = 0;

@@ -13,17 +13,6 @@ namespace {
 
 using namespace granflow;
 
-// Mean u over the material of the layer (cell-centred u of the columns, weighted by h).
-double layer_mean_u(const ndam::NdamSolver& s) {
-  const auto p = s.profile();
-  double sum = 0.0, hs = 0.0;
-  for (std::size_t q = 0; q < p.x.size(); ++q) {
-    sum += p.u_mean[q] * p.h[q];
-    hs += p.h[q];
-  }
-  return hs > 0.0 ? sum / hs : 0.0;
-}
-
 // A Drucker-Prager lid-driven box under gravity (closed, no free surface): the pressure grows
 // with depth, so tau_y = sin(phi) p varies in space, and the start-up of the flow changes p in
 // time, so the lagged and the nonlinear coupling differ by the change of p over one step.
@@ -40,22 +29,6 @@ ndam_test::Case dp_box(const std::string& coupling) {
   return c;
 }
 
-// The silo gate feeding a Drucker-Prager chute with a Coulomb bed and end wall: the pressure
-// changes in every step as the layer spreads.
-ndam_chute::FsCase gate_chute(const std::string& coupling) {
-  ndam_chute::FsCase c;
-  c.nx = 30;
-  c.nz = 10;
-  c.lx = 0.3;
-  c.walls = {"No-slip", "Coulomb", "Coulomb", "Free-slip"};
-  c.left = "Inflow";
-  c.right = "Wall";
-  c.h_in = 0.04;
-  c.depth = 0.0;
-  c.coupling = coupling;
-  return c;
-}
-
 }  // namespace
 
 // The gate-fed chute with Drucker-Prager material and Coulomb bed and wall, run with the lagged
@@ -67,8 +40,8 @@ ndam_chute::FsCase gate_chute(const std::string& coupling) {
 // first order up to the marker noise).
 TEST(NdamPressureNewton, NonlinearAndLaggedCouplingAgreeToOneStepLag) {
   const double dt = 1e-3, t_end = 0.06;
-  auto lag = ndam_chute::make_fs(gate_chute("Lagged"));
-  auto nl = ndam_chute::make_fs(gate_chute("Nonlinear"));
+  auto lag = ndam_chute::make_fs(ndam_chute::gate_chute("Lagged"));
+  auto nl = ndam_chute::make_fs(ndam_chute::gate_chute("Nonlinear"));
   int max_newton = 0;
   for (int n = 0; n * dt < t_end - 1e-12; ++n) {
     lag->step(dt);
@@ -108,14 +81,14 @@ TEST(NdamPressureNewton, PlugSlidesWithNonlinearCoupling) {
     ASSERT_TRUE(s->last_newton_solve().converged);
     s->accept();
     if (std::abs(s->time() - 0.2) < 1e-9) {
-      u1 = layer_mean_u(*s);
+      u1 = ndam_chute::layer_mean_u(*s);
       t1 = s->time();
     }
   }
   ASSERT_GT(t1, 0.0);
   const double zeta = core::deg2rad(50.0), delta = core::deg2rad(22.0);
   const double a = 9.81 * std::cos(zeta) * (std::tan(zeta) - std::tan(delta));
-  const double am = (layer_mean_u(*s) - u1) / (s->time() - t1);
+  const double am = (ndam_chute::layer_mean_u(*s) - u1) / (s->time() - t1);
   std::printf("nonlinear plug: a = %.5f m/s^2, expected %.5f\n", am, a);
   EXPECT_NEAR(am, a, 0.01 * a);
   EXPECT_GT(s->newton_solves(), 0);
