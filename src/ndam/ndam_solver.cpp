@@ -1376,6 +1376,18 @@ void NdamSolver::project(double dt) {
   sec_p_ += seconds_since(t2);
 }
 
+// P(q): nu_eff(u^n, q) and the friction factors at the trial pressure q (this rank's cells,
+// i * nz + k), then one predictor-projection into u_new_, w_new_, p_new_.
+void NdamSolver::project_at(const std::vector<double>& q, double dt) {
+  const int nxl = slab_.nx_local, nz = cfg_.grid.nz;
+  for (int i = 0; i < nxl; ++i)
+    for (int k = 0; k < nz; ++k) p_trial_(i, k) = q[static_cast<std::size_t>(i * nz + k)];
+  fill_scalar_ghosts(p_trial_);
+  update_viscosity(p_trial_);
+  project(dt);
+  q_evaluated_ = q;
+}
+
 bool NdamSolver::pressure_dependent() const {
   return (!rheo_.newtonian() && rheo_.tau_p != 0.0) || cfg_.walls[1].kind == WallKind::Coulomb ||
          cfg_.walls[2].kind == WallKind::Coulomb;
@@ -1404,18 +1416,13 @@ void NdamSolver::solve_pressure_system(double dt) {
   if (!newton_) {
     p_trial_ = Field(nxl, nz);
     auto residual = [this, nxl, nz](const std::vector<double>& q, std::vector<double>& F) {
-      for (int i = 0; i < nxl; ++i)
-        for (int k = 0; k < nz; ++k) p_trial_(i, k) = q[static_cast<std::size_t>(i * nz + k)];
-      fill_scalar_ghosts(p_trial_);
-      update_viscosity(p_trial_);
-      project(newton_dt_);
+      project_at(q, newton_dt_);
       F.resize(q.size());
       for (int i = 0; i < nxl; ++i)
         for (int k = 0; k < nz; ++k) {
           const auto r = static_cast<std::size_t>(i * nz + k);
           F[r] = (q[r] - p_new_(i, k)) * newton_scale_;
         }
-      q_evaluated_ = q;
       ++newton_evals_;
     };
     newton_ = std::make_unique<solvers::NonlinearSystem>(
@@ -1428,13 +1435,7 @@ void NdamSolver::solve_pressure_system(double dt) {
   const double inner = sec_mom_ + sec_p_;
   newton_stats_ = newton_->solve(q);
   // the state of the step: P at the returned iterate (re-evaluated unless it was the last one)
-  if (q != q_evaluated_) {
-    for (int i = 0; i < nxl; ++i)
-      for (int k = 0; k < nz; ++k) p_trial_(i, k) = q[static_cast<std::size_t>(i * nz + k)];
-    fill_scalar_ghosts(p_trial_);
-    update_viscosity(p_trial_);
-    project(dt);
-  }
+  if (q != q_evaluated_) project_at(q, dt);
   ++newton_solves_;
   newton_iters_ += newton_stats_.newton_iterations;
   newton_krylov_ += newton_stats_.krylov_iterations;

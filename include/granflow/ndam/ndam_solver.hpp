@@ -249,6 +249,7 @@ class NdamSolver final : public core::Stepper {
   void update_viscosity(const Field& p_yield);
   void update_friction(const Field& p_yield);
   void project(double dt);  // predictor, projection, pressure update into *_new_ (timed)
+  void project_at(const std::vector<double>& q, double dt);  // P(q): tau_y, (13) at q
   void solve_pressure_system(double dt);  // 'Nonlinear': NOX on R(q) = q - P(q)
   bool pressure_dependent() const;  // tau_p != 0 or a Coulomb side: the system is nonlinear
   void predict_velocity(double dt, Field& us, Field& ws);
