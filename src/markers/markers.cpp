@@ -1,6 +1,6 @@
-// Free-surface marker particles of the N-DAM (see include/granflow/ndam/markers.hpp and
+// Free-surface marker particles of the N-DAM (see include/granflow/markers/markers.hpp and
 // docs/numerics.md, "Free surface: markers").
-#include "granflow/ndam/markers.hpp"
+#include "granflow/markers/markers.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -350,17 +350,12 @@ void MarkerSet::update_flags(std::vector<CellFlag>& flags, std::vector<std::uint
     for (int k = 0; k < nz; ++k) {
       const std::size_t c = static_cast<std::size_t>(i * nz + k);
       if (obstacle[c]) { flags[c] = CellFlag::Obstacle; continue; }
-      if (count[c] == 0) { flags[c] = CellFlag::Empty; continue; }
       const int l = i > 0 ? full[c - static_cast<std::size_t>(nz)] : gl[static_cast<std::size_t>(k)];
       const int r = i < nxl - 1 ? full[c + static_cast<std::size_t>(nz)] : gr[static_cast<std::size_t>(k)];
       const int b = k > 0 ? full[c - 1] : 1;
       const int t = k < nz - 1 ? full[c + 1] : 1;
       std::uint8_t mask = 0;
-      if (!l) mask |= empty_side::Left;
-      if (!r) mask |= empty_side::Right;
-      if (!b) mask |= empty_side::Bottom;
-      if (!t) mask |= empty_side::Top;
-      flags[c] = mask ? CellFlag::Surface : CellFlag::Fluid;
+      flags[c] = classify_cell(count[c] > 0, !l, !r, !b, !t, mask);
       if (empty_sides) (*empty_sides)[c] = mask;
     }
 }
