@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <sstream>
 
@@ -137,9 +138,67 @@ std::array<double, 2> Decomposition::extent(std::size_t i, double length) const 
 // ---------------------------------------------------------------------------------------------
 // CoupledModel
 // ---------------------------------------------------------------------------------------------
-CoupledModel::CoupledModel(std::vector<Subdomain> parts)
-    : parts_(std::move(parts)), iface_mass_(parts_.empty() ? 0 : parts_.size() - 1, {0.0, 0.0}) {
+CoupledModel::CoupledModel(std::vector<Subdomain> parts, const InterfaceOptions& options,
+                           std::shared_ptr<const SubdomainFactory> factory)
+    : parts_(std::move(parts)), options_(options), factory_(std::move(factory)) {
   if (parts_.empty()) throw std::invalid_argument("CoupledModel: no subdomains");
+  for (const auto& p : parts_) initial_mass_ += p.model->mass_balance().initial;
+  reconnect();
+}
+
+CoupledModel::~CoupledModel() = default;
+
+void CoupledModel::reconnect() {
+  interfaces_.clear();
+  for (std::size_t i = 0; i + 1 < parts_.size(); ++i) {
+    interfaces_.push_back(std::make_unique<Interface>(parts_[i], parts_[i + 1], options_));
+    interfaces_.back()->connect();
+  }
+  // Step order: along the channel, except that the upstream side of an interface whose
+  // downstream side reads its tentative step goes first (interface.hpp). Such constraints
+  // only point downstream, so a part is stepped once everything it waits for has been.
+  step_order_.clear();
+  std::vector<char> done(parts_.size(), 0);
+  while (step_order_.size() < parts_.size())
+    for (std::size_t i = 0; i < parts_.size(); ++i) {
+      if (done[i]) continue;
+      if (i > 0 && interfaces_[i - 1]->upstream_steps_first() && !done[i - 1]) continue;
+      done[i] = 1;
+      step_order_.push_back(i);
+    }
+}
+
+void CoupledModel::replace_parts(std::size_t first, std::size_t count,
+                                 std::vector<Subdomain> with) {
+  if (count == 0 || first + count > parts_.size() || with.empty())
+    throw std::invalid_argument("CoupledModel::replace_parts: no parts to replace");
+  const double a = parts_[first].x0, b = parts_[first + count - 1].x1;
+  if (with.front().x0 != a || with.back().x1 != b)
+    throw std::invalid_argument("CoupledModel::replace_parts: the new parts must cover [" +
+                                params::str(a) + ", " + params::str(b) + "]");
+  // The run's inflow and outflow booked by a replaced end part stay booked; what its
+  // successor reports is added on top.
+  if (first == 0)
+    retired_inflow_ += parts_.front().model->mass_balance().inflow -
+                       with.front().model->mass_balance().inflow;
+  if (first + count == parts_.size())
+    retired_outflow_ += parts_.back().model->mass_balance().outflow -
+                        with.back().model->mass_balance().outflow;
+  interfaces_.clear();  // they point into the parts
+  parts_.erase(parts_.begin() + static_cast<std::ptrdiff_t>(first),
+               parts_.begin() + static_cast<std::ptrdiff_t>(first + count));
+  parts_.insert(parts_.begin() + static_cast<std::ptrdiff_t>(first),
+                std::make_move_iterator(with.begin()), std::make_move_iterator(with.end()));
+  reconnect();
+}
+
+Decomposition CoupledModel::layout() const {
+  Decomposition d;
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    d.models.push_back(parts_[i].kind);
+    if (i > 0) d.interfaces.push_back(parts_[i].x0);
+  }
+  return d;
 }
 
 double CoupledModel::stable_dt() const {
@@ -149,9 +208,8 @@ double CoupledModel::stable_dt() const {
 }
 
 void CoupledModel::step(double dt) {
-  // Every subdomain steps from the states at t: the interface callbacks read neighbours that
-  // have not accepted their new state yet.
-  for (auto& p : parts_) p.model->step(dt);
+  // Every subdomain steps from the states at t, in the order of the interface contract.
+  for (std::size_t i : step_order_) parts_[i].model->step(dt);
 }
 
 core::Health CoupledModel::check() const {
@@ -168,10 +226,7 @@ core::Health CoupledModel::check() const {
 
 void CoupledModel::accept() {
   for (auto& p : parts_) p.model->accept();
-  for (std::size_t i = 0; i + 1 < parts_.size(); ++i) {
-    iface_mass_[i][0] += parts_[i].last_transfer()[1];
-    iface_mass_[i][1] += parts_[i + 1].last_transfer()[0];
-  }
+  for (auto& f : interfaces_) f->book();
   ++steps_;
 }
 
@@ -189,13 +244,10 @@ core::MassBalance CoupledModel::mass_balance() const {
   // Totals over the subdomains; what crosses an interior interface leaves one subdomain and
   // enters the next, so any mismatch of the two sides shows up in the defect.
   core::MassBalance m;
-  for (const auto& p : parts_) {
-    const auto q = p.model->mass_balance();
-    m.initial += q.initial;
-    m.current += q.current;
-  }
-  m.inflow = parts_.front().model->mass_balance().inflow;
-  m.outflow = parts_.back().model->mass_balance().outflow;
+  m.initial = initial_mass_;
+  for (const auto& p : parts_) m.current += p.model->mass_balance().current;
+  m.inflow = retired_inflow_ + parts_.front().model->mass_balance().inflow;
+  m.outflow = retired_outflow_ + parts_.back().model->mass_balance().outflow;
   return m;
 }
 
@@ -219,12 +271,41 @@ void CoupledModel::save(io::Checkpoint& c) const {
     for (const auto& [k, v] : part.arrays()) c.set(pre + k, v);
   }
   c.set("coupled/steps", static_cast<double>(steps_));
-  for (std::size_t i = 0; i < iface_mass_.size(); ++i)
-    c.set("coupled/interface" + std::to_string(i),
-          std::vector<double>{iface_mass_[i][0], iface_mass_[i][1]});
+  // the decomposition: model of each part (1 or 2) and the interface positions
+  std::vector<double> kinds, xs;
+  for (const auto& p : parts_) kinds.push_back(p.one_d() ? 1.0 : 2.0);
+  for (std::size_t i = 1; i < parts_.size(); ++i) xs.push_back(parts_[i].x0);
+  c.set("coupled/models", kinds);
+  c.set("coupled/interfaces", xs);
+  c.set("coupled/ledger", std::vector<double>{initial_mass_, retired_inflow_, retired_outflow_});
+  for (std::size_t i = 0; i < interfaces_.size(); ++i) {
+    const auto m = interfaces_[i]->mass();
+    c.set("coupled/interface" + std::to_string(i), std::vector<double>{m[0], m[1]});
+  }
 }
 
 void CoupledModel::load(const io::Checkpoint& c) {
+  // The layout of the checkpoint must be this model's (a changed scene is refused).
+  if (c.arrays().count("coupled/models")) {
+    const auto& kinds = c.array("coupled/models");
+    const auto& xs = c.array("coupled/interfaces");
+    bool same = kinds.size() == parts_.size() && xs.size() + 1 == parts_.size();
+    for (std::size_t i = 0; same && i < parts_.size(); ++i) {
+      same = (kinds[i] == 1.0) == parts_[i].one_d();
+      if (same && i > 0) same = std::abs(xs[i - 1] - parts_[i].x0) <= 1e-12;
+    }
+    if (!same) {
+      std::string saved, here;
+      for (std::size_t i = 0; i < kinds.size(); ++i)
+        saved += (i ? " | " : "") + std::string(kinds[i] == 1.0 ? "1D" : "2D") +
+                 (i + 1 < kinds.size() ? " " + params::str(xs[i]) : "");
+      for (std::size_t i = 0; i < parts_.size(); ++i)
+        here += (i ? " | " : "") + parts_[i].kind +
+                (i + 1 < parts_.size() ? " " + params::str(parts_[i].x1) : "");
+      throw params::InputError("checkpoint layout (" + saved +
+                               ") differs from the scene's (" + here + ")");
+    }
+  }
   for (std::size_t i = 0; i < parts_.size(); ++i) {
     io::Checkpoint part;
     const std::string pre = "part" + std::to_string(i) + "/";
@@ -235,9 +316,19 @@ void CoupledModel::load(const io::Checkpoint& c) {
     parts_[i].model->load(part);
   }
   steps_ = static_cast<long>(c.scalar("coupled/steps"));
-  for (std::size_t i = 0; i < iface_mass_.size(); ++i) {
+  if (c.arrays().count("coupled/ledger")) {
+    const auto& l = c.array("coupled/ledger");
+    initial_mass_ = l.at(0);
+    retired_inflow_ = l.at(1);
+    retired_outflow_ = l.at(2);
+  } else {
+    initial_mass_ = 0.0;
+    for (const auto& p : parts_) initial_mass_ += p.model->mass_balance().initial;
+  }
+  // the interfaces stay connected (reconnecting would reset the 2D inflow's state)
+  for (std::size_t i = 0; i < interfaces_.size(); ++i) {
     const auto& v = c.array("coupled/interface" + std::to_string(i));
-    iface_mass_[i] = {v.at(0), v.at(1)};
+    interfaces_[i]->restore({v.at(0), v.at(1)});
   }
 }
 
@@ -250,13 +341,15 @@ void CoupledModel::report(nlohmann::json& s) const {
     parts.push_back({{"model", p.kind}, {"x0", p.x0}, {"x1", p.x1}, {"statistics", q},
                      {"mass", mb.current}, {"mass_defect", mb.defect()}});
   }
-  for (std::size_t i = 0; i < iface_mass_.size(); ++i)
-    ifaces.push_back({{"x", parts_[i].x1},
-                      {"upstream", parts_[i].kind},
-                      {"downstream", parts_[i + 1].kind},
-                      {"mass_out_of_upstream", iface_mass_[i][0]},
-                      {"mass_into_downstream", iface_mass_[i][1]},
-                      {"mismatch", iface_mass_[i][1] - iface_mass_[i][0]}});
+  for (const auto& f : interfaces_) {
+    const auto m = f->mass();
+    ifaces.push_back({{"x", f->x()},
+                      {"upstream", f->upstream().kind},
+                      {"downstream", f->downstream().kind},
+                      {"mass_out_of_upstream", m[0]},
+                      {"mass_into_downstream", m[1]},
+                      {"mismatch", m[1] - m[0]}});
+  }
   s["coupled"] = {{"subdomains", parts}, {"interfaces", ifaces}, {"steps", steps_}};
 }
 

@@ -608,4 +608,21 @@ void DamSolver::report(nlohmann::json& s) const {
               {"K_passive", phys_.K_pas}};
 }
 
+void DamSolver::set_boundary(int side, DamBoundary b) {
+  (side == 0 ? left_ : right_) = std::move(b);
+}
+
+void DamSolver::set_cells(std::vector<double> h, std::vector<double> hu, double t, long steps) {
+  if (h.size() != static_cast<std::size_t>(n_) || hu.size() != h.size())
+    throw std::invalid_argument("DamSolver::set_cells: need one value per cell");
+  staggered_ = false;
+  h_ = std::move(h);
+  hu_ = std::move(hu);
+  t_ = t_new_ = t;
+  steps_ = steps;
+  mass0_ = mass();
+  mass_in_ = mass_out_ = 0.0;
+  last_transfer_ = {0.0, 0.0};
+}
+
 }  // namespace granflow::dam

@@ -94,8 +94,7 @@ void NdamSolver::set_inflow(std::function<std::array<double, 2>(double t)> provi
   cfg_.inflow_shape = shape;
   cfg_.inflow_pressure = pressure;
   cfg_.inflow_K = K;
-  inflow_mass_ = std::move(mass);
-  inflow_owed_ = inflow_owed_new_ = 0.0;
+  inflow_mass_ = std::move(mass);  // the carried mass inflow_owed_ is state: it stays
   inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
   mac_.dirichlet_inflow_column = pressure == InflowPressure::Dirichlet;
   flags_changed_ = true;  // the Dirichlet cells of eq. (26) may have changed

@@ -106,22 +106,100 @@ void NdamSolver::write_fields(io::FieldWriter& wr) const {
   m.cell_fields.emplace_back("flag", mac_.gather_cells(fl, true));
 }
 
-void NdamSolver::save(io::Checkpoint& c) const {
-  c.set("ndam/t", t_);
-  c.set("ndam/steps", static_cast<double>(steps_));
-  c.set("ndam/nx", static_cast<double>(cfg_.grid.nx));
-  c.set("ndam/nz", static_cast<double>(cfg_.grid.nz));
-  c.set("ndam/u", gather_u());
-  c.set("ndam/w", gather_w());
-  c.set("ndam/p", gather_p());
+NdamState NdamSolver::export_state() const {
+  NdamState s;
+  s.t = t_;
+  s.steps = steps_;
+  s.nx = cfg_.grid.nx;
+  s.nz = cfg_.grid.nz;
+  s.u = gather_u();
+  s.w = gather_w();
+  s.p = gather_p();
   if (markers_) {
-    // Free surface: all markers (gathered, sorted by id; an id is stored as two doubles, its
-    // high and low 31 bits, since injected ids start at 2^62, beyond a double's 53 bits), the
-    // injection accumulators of the gate (rank 0 owns column 0), the global counters, the
-    // initial marker area.
-    const auto all = markers_->gather();
+    // all markers (gathered, sorted by id), the gate's accumulators (rank 0 owns column 0), the
+    // id counters (maxima over the ranks) and the global counters
+    s.markers = markers_->gather();
+    s.inflow_accumulators = markers_->inflow_accumulators();
+    int n = static_cast<int>(s.inflow_accumulators.size());
+    MPI_Bcast(&n, 1, MPI_INT, 0, comm_);
+    s.inflow_accumulators.resize(static_cast<std::size_t>(n));
+    MPI_Bcast(s.inflow_accumulators.data(), n, MPI_DOUBLE, 0, comm_);
+    const MarkerState st = markers_->save();
+    long long loc[2] = {st.inject_next, st.seed_base}, mx[2] = {0, 0};
+    MPI_Allreduce(loc, mx, 2, MPI_LONG_LONG, MPI_MAX, comm_);
+    s.inject_next = mx[0];
+    s.seed_base = mx[1];
+    s.injected = marker_mass_.injected;
+    s.removed = marker_mass_.removed;
+    s.mass0 = mass0_;
+    s.inflow_owed = inflow_owed_;
+  }
+  return s;
+}
+
+// The state of `s` on this box: fields, markers (this rank takes those of its columns; the
+// gate's accumulators and the global counters go to rank 0, since MarkerSet::mass() sums the
+// ranks' counters), flags from the markers, and everything derived from them.
+void NdamSolver::import_state(const NdamState& s) {
+  if (s.nx != cfg_.grid.nx || s.nz != cfg_.grid.nz) {
+    std::ostringstream os;
+    os << "N-DAM state grid (" << s.nx << " x " << s.nz << " cells) does not match the box ("
+       << cfg_.grid.nx << " x " << cfg_.grid.nz << ")";
+    throw params::InputError(os.str());
+  }
+  t_ = s.t;
+  steps_ = s.steps;
+  mac_.scatter_cells(s.u, u_);
+  mac_.scatter_cells(s.w, w_);
+  mac_.scatter_cells(s.p, p_);
+  if (markers_) {
+    MarkerState st;
+    const double dx = cfg_.grid.dx();
+    for (const Marker& m : s.markers) {
+      const int gi = std::clamp(static_cast<int>(std::floor(m.x / dx)), 0, cfg_.grid.nx - 1);
+      if (gi >= mac_.slab.i0 && gi < mac_.slab.i0 + mac_.slab.nx_local) st.markers.push_back(m);
+    }
+    st.inflow_accumulators = s.inflow_accumulators;
+    st.inject_next = s.inject_next;
+    st.seed_base = s.seed_base;
+    st.injected = mac_.slab.rank == 0 ? s.injected : 0;
+    st.removed = mac_.slab.rank == 0 ? s.removed : 0;
+    markers_->load(st);
+    mass0_ = s.mass0;
+    inflow_owed_ = inflow_owed_new_ = s.inflow_owed;
+    marker_mass_ = markers_->mass();
+    const auto old_flags = mac_.flags;
+    update_flags(*markers_, mac_.flags, mac_.empty_mask);
+    if (mac_.flags != old_flags) flags_changed_ = true;
+    if (cfg_.inflow) inflow_now_ = cfg_.inflow(t_);
+  }
+  fluid_cells_ = 0;
+  for (int gi = 0; gi < cfg_.grid.nx; ++gi)
+    for (int k = 0; k < cfg_.grid.nz; ++k)
+      if (mac_.p_unknown(gi, k)) ++fluid_cells_;
+  fill_velocity_ghosts(u_, w_);
+  fill_scalar_ghosts(p_);
+  update_viscosity(p_);
+  if (markers_) update_profile_cache();
+  u_new_ = u_;
+  w_new_ = w_;
+  p_new_ = p_;
+}
+
+void NdamSolver::save(io::Checkpoint& c) const {
+  const NdamState s = export_state();
+  c.set("ndam/t", s.t);
+  c.set("ndam/steps", static_cast<double>(s.steps));
+  c.set("ndam/nx", static_cast<double>(s.nx));
+  c.set("ndam/nz", static_cast<double>(s.nz));
+  c.set("ndam/u", s.u);
+  c.set("ndam/w", s.w);
+  c.set("ndam/p", s.p);
+  if (markers_) {
+    // an id is stored as two doubles, its high and low 31 bits, since injected ids start at
+    // 2^62, beyond a double's 53 bits
     std::vector<double> xs, zs, ids;
-    for (const auto& m : all) {
+    for (const auto& m : s.markers) {
       xs.push_back(m.x);
       zs.push_back(m.z);
       ids.push_back(static_cast<double>(m.id >> 31));
@@ -130,21 +208,13 @@ void NdamSolver::save(io::Checkpoint& c) const {
     c.set("ndam/markers_x", xs);
     c.set("ndam/markers_z", zs);
     c.set("ndam/markers_id", ids);
-    std::vector<double> acc = markers_->inflow_accumulators();
-    int n = static_cast<int>(acc.size());
-    MPI_Bcast(&n, 1, MPI_INT, 0, comm_);
-    acc.resize(static_cast<std::size_t>(n));
-    MPI_Bcast(acc.data(), n, MPI_DOUBLE, 0, comm_);
-    c.set("ndam/markers_accumulators", acc);
-    const MarkerState st = markers_->save();
-    long long loc[2] = {st.inject_next, st.seed_base}, mx[2] = {0, 0};
-    MPI_Allreduce(loc, mx, 2, MPI_LONG_LONG, MPI_MAX, comm_);
-    c.set("ndam/markers_inject_next", static_cast<double>(mx[0]));
-    c.set("ndam/markers_seed_base", static_cast<double>(mx[1]));
-    c.set("ndam/markers_injected", static_cast<double>(marker_mass_.injected));
-    c.set("ndam/markers_removed", static_cast<double>(marker_mass_.removed));
-    c.set("ndam/mass0", mass0_);
-    c.set("ndam/inflow_owed", inflow_owed_);
+    c.set("ndam/markers_accumulators", s.inflow_accumulators);
+    c.set("ndam/markers_inject_next", static_cast<double>(s.inject_next));
+    c.set("ndam/markers_seed_base", static_cast<double>(s.seed_base));
+    c.set("ndam/markers_injected", static_cast<double>(s.injected));
+    c.set("ndam/markers_removed", static_cast<double>(s.removed));
+    c.set("ndam/mass0", s.mass0);
+    c.set("ndam/inflow_owed", s.inflow_owed);
   }
 }
 
@@ -156,48 +226,44 @@ void NdamSolver::load(const io::Checkpoint& c) {
        << " cells) does not match the scene (" << cfg_.grid.nx << " x " << cfg_.grid.nz << ")";
     throw params::InputError(os.str());
   }
-  t_ = c.scalar("ndam/t");
-  steps_ = static_cast<long>(c.scalar("ndam/steps"));
-  mac_.scatter_cells(c.array("ndam/u"), u_);
-  mac_.scatter_cells(c.array("ndam/w"), w_);
-  mac_.scatter_cells(c.array("ndam/p"), p_);
+  NdamState s;
+  s.t = c.scalar("ndam/t");
+  s.steps = static_cast<long>(c.scalar("ndam/steps"));
+  s.nx = cfg_.grid.nx;
+  s.nz = cfg_.grid.nz;
+  s.u = c.array("ndam/u");
+  s.w = c.array("ndam/w");
+  s.p = c.array("ndam/p");
   if (markers_) {
-    // This rank takes the markers of its columns; the gate's accumulators and the global
-    // counters go to rank 0 (MarkerSet::mass() sums the ranks' counters).
-    MarkerState st;
     const auto& xs = c.array("ndam/markers_x");
     const auto& zs = c.array("ndam/markers_z");
     const auto& ids = c.array("ndam/markers_id");
-    const double dx = cfg_.grid.dx();
-    for (std::size_t q = 0; q < xs.size(); ++q) {
-      const int gi = std::clamp(static_cast<int>(std::floor(xs[q] / dx)), 0, cfg_.grid.nx - 1);
-      if (gi >= mac_.slab.i0 && gi < mac_.slab.i0 + mac_.slab.nx_local)
-        st.markers.push_back(Marker{xs[q], zs[q],
-                                    (static_cast<long long>(ids[2 * q]) << 31) +
-                                        static_cast<long long>(ids[2 * q + 1])});
-    }
-    st.inflow_accumulators = c.array("ndam/markers_accumulators");
-    st.inject_next = static_cast<long long>(c.scalar("ndam/markers_inject_next"));
-    st.seed_base = static_cast<long long>(c.scalar("ndam/markers_seed_base"));
-    st.injected = mac_.slab.rank == 0 ? static_cast<long long>(c.scalar("ndam/markers_injected")) : 0;
-    st.removed = mac_.slab.rank == 0 ? static_cast<long long>(c.scalar("ndam/markers_removed")) : 0;
-    markers_->load(st);
-    mass0_ = c.scalar("ndam/mass0");
-    if (c.scalars().count("ndam/inflow_owed")) inflow_owed_ = c.scalar("ndam/inflow_owed");
-    inflow_owed_new_ = inflow_owed_;
-    marker_mass_ = markers_->mass();
-    const auto old_flags = mac_.flags;
-    update_flags(*markers_, mac_.flags, mac_.empty_mask);
-    if (mac_.flags != old_flags) flags_changed_ = true;
-    if (cfg_.inflow) inflow_now_ = cfg_.inflow(t_);
+    for (std::size_t q = 0; q < xs.size(); ++q)
+      s.markers.push_back(Marker{xs[q], zs[q],
+                                 (static_cast<long long>(ids[2 * q]) << 31) +
+                                     static_cast<long long>(ids[2 * q + 1])});
+    s.inflow_accumulators = c.array("ndam/markers_accumulators");
+    s.inject_next = static_cast<long long>(c.scalar("ndam/markers_inject_next"));
+    s.seed_base = static_cast<long long>(c.scalar("ndam/markers_seed_base"));
+    s.injected = static_cast<long long>(c.scalar("ndam/markers_injected"));
+    s.removed = static_cast<long long>(c.scalar("ndam/markers_removed"));
+    s.mass0 = c.scalar("ndam/mass0");
+    if (c.scalars().count("ndam/inflow_owed")) s.inflow_owed = c.scalar("ndam/inflow_owed");
   }
-  fill_velocity_ghosts(u_, w_);
-  fill_scalar_ghosts(p_);
-  update_viscosity(p_);
-  if (markers_) update_profile_cache();
-  u_new_ = u_;
-  w_new_ = w_;
-  p_new_ = p_;
+  import_state(s);
+}
+
+NdamStatistics NdamSolver::statistics() const {
+  NdamStatistics s = stats_;
+  s.retired_pressure_setups += pressure_->preconditioner_setups();
+  s.retired_pressure_setup_seconds += pressure_->preconditioner_setup_seconds();
+  s.retired_pressure_patterns += pressure_->pattern_builds();
+  if (momentum_) {
+    s.retired_momentum_setups += momentum_->preconditioner_setups();
+    s.retired_momentum_setup_seconds += momentum_->preconditioner_setup_seconds();
+    s.retired_momentum_patterns += momentum_->pattern_builds();
+  }
+  return s;
 }
 
 void NdamSolver::report(nlohmann::json& s) const {

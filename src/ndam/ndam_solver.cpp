@@ -18,8 +18,30 @@ using detail::seconds_since;
 
 NdamSolver::NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo,
                        const NdamPhysics& phys)
+    : NdamSolver(comm, cfg, rheo, phys, nullptr, NdamStatistics{}) {}
+
+NdamSolver::NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo,
+                       const NdamPhysics& phys, const NdamState& state,
+                       const NdamStatistics& stats)
+    : NdamSolver(comm, cfg, rheo, phys, &state, stats) {}
+
+NdamSolver::NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo,
+                       const NdamPhysics& phys, const NdamState* state,
+                       const NdamStatistics& stats)
     : comm_(comm), cfg_(cfg), rheo_(rheo), phys_(phys),
-      mac_(comm, cfg.grid, cfg.periodic_x()) {
+      mac_(comm, cfg.grid, cfg.periodic_x()), stats_(stats) {
+  setup();
+  if (state) {
+    import_state(*state);
+    assemble_pressure();
+    flags_changed_ = false;
+  } else {
+    rest_state();
+  }
+}
+
+// The layout and its fields, the obstacle cells, the (empty) marker set and the linear systems.
+void NdamSolver::setup() {
   const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
   const bool per = cfg_.periodic_x();
   mac_.dirichlet_inflow_column = cfg_.inflow_pressure == InflowPressure::Dirichlet;
@@ -62,29 +84,15 @@ NdamSolver::NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rhe
                       : (cfg_.outflow_right ? MarkerBoundary::Outflow : MarkerBoundary::Wall);
     markers_ = std::make_unique<MarkerSet>(comm_, cfg_.grid, mac_.slab, mc);
     markers_new_ = std::make_unique<MarkerSet>(*markers_);
-    const double xa = cfg_.initial_x0 - cfg_.x0, xb = cfg_.initial_x1 - cfg_.x0,
-                 h0 = cfg_.initial_depth;
-    if (h0 > 0.0) markers_->seed([&](double x, double z) { return x >= xa && x < xb && z < h0; });
-    mass0_ = markers_->mass().area;
-    marker_mass_ = markers_->mass();
-    update_flags(*markers_, mac_.flags, mac_.empty_mask);
   }
   p_dir_ = Field(nxl, nz);
   normD_ = Field(nxl, nz);
-  fluid_cells_ = 0;
-  for (int gi = 0; gi < nx; ++gi)
-    for (int k = 0; k < nz; ++k)
-      if (mac_.p_unknown(gi, k)) ++fluid_cells_;
-  if (fluid_cells_ == 0 && !cfg_.free_surface)
-    throw params::InputError("N-DAM->Obstacles: the obstacles fill the whole box; allowed: "
-                             "rectangles that leave fluid cells");
-
   // Pressure: one unknown per cell, numbered gi * nz + k (contiguous per slab). The matrix -L
-  // changes only with the cell flags: it is assembled now and again whenever the flags change
-  // (free surface); its preconditioner is set up after each assembly.
+  // changes only with the cell flags: it is assembled once the flags are known and again
+  // whenever they change (free surface); its preconditioner is set up after each assembly.
   pressure_ = std::make_unique<solvers::LinearSystem>(
-      comm_, static_cast<long long>(nx) * nz, mac_.p_gid(mac_.slab.i0, 0), nxl * nz, cfg_.pressure_solver);
-  assemble_pressure();
+      comm_, static_cast<long long>(nx) * nz, mac_.p_gid(mac_.slab.i0, 0), nxl * nz,
+      cfg_.pressure_solver);
   if (cfg_.momentum == Momentum::Implicit) {
     // u and w of a cell are interleaved (2 (gi nz + k) and +1) so that MueLu can aggregate them
     // as two equations per node; wall-normal faces are identity rows.
@@ -96,6 +104,28 @@ NdamSolver::NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rhe
   }
   bed_a_.assign(static_cast<std::size_t>(nxl + 2 * Field::G), 1.0);
   wall_a_.assign(static_cast<std::size_t>(nz), 1.0);
+}
+
+// t = 0: the material at rest (the initial layer of the free-surface box, or the whole closed
+// box) with the pressure of eq. (10), i.e. in hydrostatic balance.
+void NdamSolver::rest_state() {
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
+  if (cfg_.free_surface) {
+    const double xa = cfg_.initial_x0 - cfg_.x0, xb = cfg_.initial_x1 - cfg_.x0,
+                 h0 = cfg_.initial_depth;
+    if (h0 > 0.0) markers_->seed([&](double x, double z) { return x >= xa && x < xb && z < h0; });
+    mass0_ = markers_->mass().area;
+    marker_mass_ = markers_->mass();
+    update_flags(*markers_, mac_.flags, mac_.empty_mask);
+  }
+  fluid_cells_ = 0;
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = 0; k < nz; ++k)
+      if (mac_.p_unknown(gi, k)) ++fluid_cells_;
+  if (fluid_cells_ == 0 && !cfg_.free_surface)
+    throw params::InputError("N-DAM->Obstacles: the obstacles fill the whole box; allowed: "
+                             "rectangles that leave fluid cells");
+  assemble_pressure();
   if (cfg_.inflow) inflow_now_ = cfg_.inflow(0.0);
   fill_velocity_ghosts(u_, w_);
   update_viscosity(p_);

@@ -139,6 +139,15 @@ class DamSolver final : public core::Stepper {
   double x_left() const { return x0_; }
   double x_right() const { return x1_; }
 
+  // Rebuilding (the coupled model's interfaces and the domain manager).
+  /// Replaces the boundary of one end (0 left, 1 right) after construction: the coupled model
+  /// reconnects its interfaces after a change of its parts.
+  void set_boundary(int side, DamBoundary b);
+  /// The state on the primary grid from the cell averages h, hu (cells() each) at time t after
+  /// `steps` steps; the ledger restarts from this mass (a subdomain rebuilt from the cells of its
+  /// predecessor or from 2D columns; the coupled model keeps the run's ledger).
+  void set_cells(std::vector<double> h, std::vector<double> hu, double t, long steps);
+
  private:
   static constexpr int G = 2;  // ghost cells per side
   struct Work;                 // padded arrays of one step

@@ -49,6 +49,7 @@
 #include "granflow/ndam/config.hpp"
 #include "granflow/ndam/grid.hpp"
 #include "granflow/ndam/mac_layout.hpp"
+#include "granflow/ndam/ndam_state.hpp"
 #include "granflow/ndam/rheology.hpp"
 #include "granflow/ndam/statistics.hpp"
 #include "granflow/solvers/linear_system.hpp"
@@ -70,6 +71,11 @@ class NdamSolver final : public core::Stepper {
   /// Builds the grid slab of this rank on `comm` (collective) with the fluid at rest and the
   /// pressure of eq. (10) (hydrostatic).
   NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo, const NdamPhysics& phys);
+  /// Builds the box from a given state (collective): a restart, or a subdomain rebuilt for a new
+  /// extent; `state` must have the grid of `cfg` (InputError otherwise). The initial layer of
+  /// `cfg` is not seeded. `stats` continues the run's counters.
+  NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo, const NdamPhysics& phys,
+             const NdamState& state, const NdamStatistics& stats = {});
   ~NdamSolver() override;
 
   // Stepper
@@ -91,7 +97,11 @@ class NdamSolver final : public core::Stepper {
   const Grid& grid() const { return cfg_.grid; }
   const Slab& slab() const { return mac_.slab; }
   const NdamConfig& config() const { return cfg_; }
-  const NdamStatistics& statistics() const { return stats_; }
+  /// The run's counters and timers, with the preconditioner work of this box's linear systems
+  /// folded in (what a box rebuilt for a new extent continues from).
+  NdamStatistics statistics() const;
+  /// The state the next step reads (collective).
+  NdamState export_state() const;
   /// Global fields gathered on every rank, index gi * nz + k: u on the right face of cell
   /// (gi, k), w on its top face, p and nu_eff at its centre.
   std::vector<double> gather_u() const;
@@ -152,7 +162,11 @@ class NdamSolver final : public core::Stepper {
   enum Comp { U = 0, W = 1 };
 
  private:
-
+  NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo, const NdamPhysics& phys,
+             const NdamState* state, const NdamStatistics& stats);
+  void setup();                              // layout, fields, markers, linear systems
+  void rest_state();                         // the initial layer at rest, eq. (10) pressure
+  void import_state(const NdamState& s);     // the given state (restart, rebuilt box)
   // --- boundaries.cpp: walls, moving lid, Coulomb slip ghosts, friction factors, ghosts -----
   Ref u_ref(int i, int k) const;
   Ref w_ref(int i, int k) const;
