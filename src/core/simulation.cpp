@@ -241,7 +241,10 @@ int Simulation::run() {
     io_->profiles.open(rc_.directory, restart);
     if (rc_.fields) io_->fields.open(rc_.directory, restart);
   }
-  if (!restart) write_output();
+  if (!restart) {
+    model_->adapt();  // the layout of t0 (a dynamic layout's first check)
+    write_output();
+  }
 
   // The time loop:  dt = min(stable dt, output and end times);  step;  check;  accept.
   double next_output = t0_ + rc_.output_interval;
@@ -290,6 +293,10 @@ int Simulation::run() {
     }
     model_->accept();
     last_dt_ = dt;
+    // between accepted steps: the model may change its layout (the domain manager)
+    const auto t3 = Clock::now();
+    model_->adapt();
+    phase_seconds_["layout"] += std::chrono::duration<double>(Clock::now() - t3).count();
     if (model_->time() >= next_output - eps_t) {
       write_output();
       next_output += rc_.output_interval;

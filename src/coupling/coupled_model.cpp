@@ -1,5 +1,8 @@
 #include "granflow/coupling/coupled_model.hpp"
 
+#include "granflow/coupling/domain_manager.hpp"
+#include "granflow/coupling/factory.hpp"
+
 #include "granflow/io/fields.hpp"
 #include "granflow/params/parameters.hpp"
 
@@ -19,16 +22,19 @@ namespace granflow::coupling {
 Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
   static Teuchos::RCP<const Teuchos::ParameterList> valid = [] {
     using namespace params;
+    const Decomposition d;  // the defaults
     auto pl = Teuchos::rcp(new Teuchos::ParameterList("Decomposition"));
-    add_enum(*pl, "Layout", "Static",
+    add_enum(*pl, "Layout", d.layout,
              "Static: the subdomains of 'Models' split at 'Interfaces'; A priori: a DAM run of "
              "the whole scene first computes eps = 1/Fr^2 and the model is 2D wherever "
-             "eps >= 'Shallowness threshold' (plus 'Margin'), 1D elsewhere (paper section 4.1)",
-             {"Static", "A priori"});
+             "eps >= 'Shallowness threshold' (plus 'Margin'), 1D elsewhere (paper section 4.1); "
+             "Dynamic: the domain manager moves the interfaces while the run goes on, starting "
+             "from 'Initial layout' (docs/numerics.md, 'Domain manager')",
+             {"Static", "A priori", "Dynamic"});
     auto kinds = Teuchos::rcp(new Teuchos::StringValidator(Teuchos::tuple<std::string>("1D", "2D")));
     pl->set("Models", Teuchos::Array<std::string>(Teuchos::tuple<std::string>("2D", "1D", "2D")),
             "model of each subdomain from upstream to downstream: 1D (DAM) or 2D (N-DAM); one "
-            "more entry than 'Interfaces' (Static layout)",
+            "more entry than 'Interfaces' (Static layout, and a Dynamic one that starts from it)",
             Teuchos::rcp(new Teuchos::ArrayStringValidator(kinds)));
     auto pos = Teuchos::rcp(new Teuchos::EnhancedNumberValidator<double>(0.0, 1e6));
     pl->set("Interfaces", Teuchos::Array<double>(Teuchos::tuple<double>(0.2, 0.7)),
@@ -37,17 +43,43 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
             "positions, or a position at 0 or L) is left out and same-model neighbours that then "
             "touch become one subdomain: {2D, 1D, 2D} with {a, a} is the full 2D model",
             Teuchos::rcp(new Teuchos::ArrayNumberValidator<double>(pos)));
-    add_double(*pl, "Shallowness threshold", 0.1,
-               "A priori layout: 2D wherever eps = 1/Fr^2 reaches this at any output time of the "
-               "DAM run (the paper's minimum requirement at an interface is eps < 0.1)",
+    add_double(*pl, "Shallowness threshold", d.eps_threshold,
+               "A priori and Dynamic layouts: 2D wherever the shallowness parameter eps reaches "
+               "this (a priori: eps = 1/Fr^2 at any output time of the DAM run; dynamic: at a "
+               "check, see 'Lower threshold'). The paper's minimum requirement at an interface "
+               "is eps < 0.1",
                1e-6, 1e6);
-    add_double(*pl, "Margin", 0.05,
-               "[m] A priori layout: each 2D region is widened by this on both sides (the paper: "
-               "'somewhat greater than suggested by the one-dimensional simulation')",
+    add_double(*pl, "Margin", d.margin,
+               "[m] each 2D region is widened by this on both sides (the paper: 'somewhat greater "
+               "than suggested by the one-dimensional simulation'); in a Dynamic layout also how "
+               "far inside 2D a shock or a rise of eps is kept",
                0.0, 1e6);
-    add_double(*pl, "Minimum length", 0.05,
-               "[m] A priori layout: shorter 1D gaps and end pieces become 2D", 0.0, 1e6);
-    add_enum(*pl, "Interface pressure", "Rheology",
+    add_double(*pl, "Minimum length", d.min_length,
+               "[m] A priori and Dynamic layouts: shorter 1D gaps and end pieces become 2D, and a "
+               "2D subdomain is never made shorter than this",
+               0.0, 1e6);
+    add_enum(*pl, "Initial layout", d.initial_layout,
+             "Dynamic layout: where the run starts: Static ('Models' and 'Interfaces', e.g. the "
+             "paper's layout) or A priori (the layout of a DAM run, as Layout = A priori)",
+             {"Static", "A priori"});
+    add_double(*pl, "Lower threshold", d.eps_lower,
+               "Dynamic layout: a 2D column may become 1D only where eps stays below this for "
+               "'Hold time' (hysteresis between this and 'Shallowness threshold', so that "
+               "interfaces do not flicker); must be below 'Shallowness threshold'",
+               0.0, 1e6);
+    add_double(*pl, "Hold time", d.hold_time,
+               "[s] Dynamic layout: how long eps must stay below 'Lower threshold' before a 2D "
+               "column becomes 1D",
+               0.0, 1e6);
+    add_double(*pl, "Check interval", d.check_interval,
+               "[s] Dynamic layout: time between two evaluations of the layout (at the end of "
+               "the first accepted step at or after each multiple)",
+               1e-9, 1e6);
+    add_double(*pl, "Rest speed", d.rest_speed,
+               "[m/s] Dynamic layout: material moving slower than this (|u_mean|) is at rest: a "
+               "deposit, which stays 2D (eps = |w|/|u| is 0/0 there and 1/Fr^2 infinite)",
+               0.0, 1e6);
+    add_enum(*pl, "Interface pressure", d.interface_pressure,
              "how the pressure of eq. (26), p = g cos(zeta)(h - z)(1 + K_act)/2, enters the first "
              "2D column behind a 1D-to-2D interface: Rheology: the column stays in the "
              "projection (div u = 0) and eq. (26) is the pressure of its yield stress; Dirichlet: "
@@ -81,7 +113,16 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   d.margin = pl.get<double>("Margin");
   d.min_length = pl.get<double>("Minimum length");
   d.interface_pressure = pl.get<std::string>("Interface pressure");
-  if (d.layout == "Static") {
+  d.initial_layout = pl.get<std::string>("Initial layout");
+  d.eps_lower = pl.get<double>("Lower threshold");
+  d.hold_time = pl.get<double>("Hold time");
+  d.check_interval = pl.get<double>("Check interval");
+  d.rest_speed = pl.get<double>("Rest speed");
+  if (d.layout == "Dynamic" && !(d.eps_lower < d.eps_threshold))
+    params::fail(pl, "Lower threshold", params::str(d.eps_lower),
+                 "must be below 'Shallowness threshold' = " + params::str(d.eps_threshold) +
+                     " (the hysteresis between the two keeps interfaces from flickering)");
+  if (d.layout == "Static" || (d.layout == "Dynamic" && d.initial_layout == "Static")) {
     if (d.models.size() != d.interfaces.size() + 1)
       params::fail(pl, "Models", Teuchos::toString(models),
                    "needs exactly one entry more than 'Interfaces' = " + list(d.interfaces) +
@@ -201,6 +242,10 @@ Decomposition CoupledModel::layout() const {
   return d;
 }
 
+void CoupledModel::set_domain_manager(std::unique_ptr<DomainManager> m) { manager_ = std::move(m); }
+
+bool CoupledModel::adapt() { return manager_ && manager_->adapt(*this); }
+
 double CoupledModel::stable_dt() const {
   double dt = std::numeric_limits<double>::infinity();
   for (const auto& p : parts_) dt = std::min(dt, p.model->stable_dt());
@@ -278,6 +323,7 @@ void CoupledModel::save(io::Checkpoint& c) const {
   c.set("coupled/models", kinds);
   c.set("coupled/interfaces", xs);
   c.set("coupled/ledger", std::vector<double>{initial_mass_, retired_inflow_, retired_outflow_});
+  if (manager_) manager_->save(c);
   for (std::size_t i = 0; i < interfaces_.size(); ++i) {
     const auto m = interfaces_[i]->mass();
     c.set("coupled/interface" + std::to_string(i), std::vector<double>{m[0], m[1]});
@@ -293,6 +339,18 @@ void CoupledModel::load(const io::Checkpoint& c) {
     for (std::size_t i = 0; same && i < parts_.size(); ++i) {
       same = (kinds[i] == 1.0) == parts_[i].one_d();
       if (same && i > 0) same = std::abs(xs[i - 1] - parts_[i].x0) <= 1e-12;
+    }
+    if (!same && manager_ && factory_) {
+      // A dynamic run: the parts of the checkpoint's layout, then their states below.
+      std::vector<Subdomain> rebuilt;
+      const double L = factory_->length();
+      for (std::size_t i = 0; i < kinds.size(); ++i) {
+        const double x0 = i == 0 ? 0.0 : xs[i - 1], x1 = i + 1 == kinds.size() ? L : xs[i];
+        rebuilt.push_back(factory_->initial(kinds[i] == 1.0 ? "1D" : "2D", x0, x1,
+                                            Neighbours{i > 0, i + 1 < kinds.size()}));
+      }
+      replace_parts(0, parts_.size(), std::move(rebuilt));
+      same = true;
     }
     if (!same) {
       std::string saved, here;
@@ -325,6 +383,7 @@ void CoupledModel::load(const io::Checkpoint& c) {
     initial_mass_ = 0.0;
     for (const auto& p : parts_) initial_mass_ += p.model->mass_balance().initial;
   }
+  if (manager_) manager_->load(c);
   // the interfaces stay connected (reconnecting would reset the 2D inflow's state)
   for (std::size_t i = 0; i < interfaces_.size(); ++i) {
     const auto& v = c.array("coupled/interface" + std::to_string(i));
@@ -351,6 +410,7 @@ void CoupledModel::report(nlohmann::json& s) const {
                       {"mismatch", m[1] - m[0]}});
   }
   s["coupled"] = {{"subdomains", parts}, {"interfaces", ifaces}, {"steps", steps_}};
+  if (manager_) manager_->report(s["coupled"]);
 }
 
 }  // namespace granflow::coupling

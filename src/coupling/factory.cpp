@@ -86,17 +86,17 @@ Subdomain SubdomainFactory::initial(const std::string& kind, double x0, double x
 }
 
 Subdomain SubdomainFactory::dam(double x0, double x1, std::vector<double> h,
-                                std::vector<double> hu, double t, long steps,
-                                Neighbours n) const {
+                                std::vector<double> hu, double t, long steps, Neighbours n,
+                                bool staggered) const {
   Subdomain s;
   s.kind = "1D";
   s.x0 = x0;
   s.x1 = x1;
   auto sub_cfg = dam_cfg_;
-  sub_cfg.cells = static_cast<int>(h.size());
+  sub_cfg.cells = static_cast<int>(h.size()) - (staggered ? 1 : 0);
   auto d = std::make_unique<dam::DamSolver>(x0, x1, sub_cfg, dam_phys_, dam_boundary(0, n),
                                             dam_boundary(1, n));
-  d->set_cells(std::move(h), std::move(hu), t, steps);
+  d->set_cells(std::move(h), std::move(hu), t, steps, staggered);
   s.dam = d.get();
   s.model = std::move(d);
   return s;

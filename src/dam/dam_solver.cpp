@@ -612,10 +612,11 @@ void DamSolver::set_boundary(int side, DamBoundary b) {
   (side == 0 ? left_ : right_) = std::move(b);
 }
 
-void DamSolver::set_cells(std::vector<double> h, std::vector<double> hu, double t, long steps) {
-  if (h.size() != static_cast<std::size_t>(n_) || hu.size() != h.size())
+void DamSolver::set_cells(std::vector<double> h, std::vector<double> hu, double t, long steps,
+                          bool staggered) {
+  if (h.size() != static_cast<std::size_t>(n_ + (staggered ? 1 : 0)) || hu.size() != h.size())
     throw std::invalid_argument("DamSolver::set_cells: need one value per cell");
-  staggered_ = false;
+  staggered_ = staggered;
   h_ = std::move(h);
   hu_ = std::move(hu);
   t_ = t_new_ = t;

@@ -99,6 +99,7 @@ void NdamSolver::set_inflow(std::function<std::array<double, 2>(double t)> provi
   mac_.dirichlet_inflow_column = pressure == InflowPressure::Dirichlet;
   flags_changed_ = true;  // the Dirichlet cells of eq. (26) may have changed
   fill_velocity_ghosts(u_, w_);
+  update_profile_cache();  // u_mean of the inflow column reads the new inflow face
 }
 
 // Markers of the gate: the open part of each row enters with the material velocity of its

@@ -11,6 +11,7 @@
 #include "granflow/ndam/ndam_solver.hpp"
 #include "granflow/ndam/rheology.hpp"
 #include "granflow/coupling/build.hpp"
+#include "granflow/coupling/domain_manager.hpp"
 #include "granflow/params/parameters.hpp"
 
 #include <filesystem>
@@ -128,12 +129,14 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
       const auto init = [&](dam::DamSolver& dam) {
         dam::InitialCondition::apply(p.sublist("Initial condition"), uic, channel, dam);
       };
-      if (d.layout == "A priori")
+      const bool dynamic = d.layout == "Dynamic";
+      if (d.layout == "A priori" || (dynamic && d.initial_layout == "A priori"))
         d = coupling::a_priori_layout(d, material, channel, cfg, init,
                                       p.sublist("Time").get<double>("End time"),
                                       p.sublist("Output").get<double>("Interval"));
       const bool any_2d = std::find(d.models.begin(), d.models.end(), "2D") != d.models.end();
-      if (!any_2d) return coupling::build(d, material, channel, cfg, init);
+      // a dynamic layout may create 2D subdomains later: it always configures the 2D model
+      if (!any_2d && !dynamic) return coupling::build(d, material, channel, cfg, init);
       int ranks = 1;
       MPI_Comm_size(MPI_COMM_WORLD, &ranks);
       auto user_sub = [&](const char* n) {
@@ -149,7 +152,11 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
       two_d.rheology =
           ndam::Rheology::from_parameters(p.sublist("Rheology"), user_sub("Rheology"), material);
       two_d.physics = ndam::NdamPhysics::from(material, channel);
-      return coupling::build(d, material, channel, cfg, init, &two_d);
+      auto coupled = coupling::build(d, material, channel, cfg, init, &two_d);
+      if (dynamic)
+        coupled->set_domain_manager(
+            std::make_unique<coupling::DomainManager>(d, coupled->factory()));
+      return coupled;
     }
     if (s.model == "DAM") {
       const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));

@@ -60,6 +60,9 @@ class Stepper {
   virtual Health check() const = 0;
   /// Make the tentative state current.
   virtual void accept() = 0;
+  /// Between accepted steps (and once before the first): a model may change its own structure,
+  /// e.g. the coupled model's domain manager moves its interfaces. Returns whether it did.
+  virtual bool adapt() { return false; }
 
   virtual Profile profile() const = 0;
   virtual MassBalance mass_balance() const = 0;

@@ -29,10 +29,16 @@ namespace granflow::coupling {
 struct Decomposition {
   std::vector<std::string> models;  ///< "1D" or "2D" per subdomain, upstream first
   std::vector<double> interfaces;   ///< interface positions [m], non-decreasing in [0, L]
-  std::string layout = "Static";    ///< "Static" or "A priori"
-  double eps_threshold = 0.1;       ///< a priori: 2D where eps = 1/Fr^2 >= this
-  double margin = 0.05;             ///< a priori: widening of each 2D region [m]
-  double min_length = 0.05;         ///< a priori: shortest subdomain kept [m]
+  std::string layout = "Static";    ///< "Static", "A priori" or "Dynamic"
+  double eps_threshold = 0.1;       ///< a priori and dynamic: 2D where eps >= this
+  double margin = 0.05;             ///< widening of each 2D region [m]
+  double min_length = 0.05;         ///< shortest subdomain kept [m]
+  // Dynamic layout (the domain manager, domain_manager.hpp)
+  std::string initial_layout = "Static";  ///< "Static" or "A priori": where a dynamic run starts
+  double eps_lower = 0.05;          ///< a 2D column may become 1D once eps < this ...
+  double hold_time = 0.05;          ///< ... for this long [s] (hysteresis)
+  double check_interval = 0.005;    ///< time between two evaluations of the layout [s]
+  double rest_speed = 0.05;         ///< |u_mean| below this is material at rest: 2D [m/s]
   /// 1D-to-2D interfaces: how the pressure of eq. (26) enters the 2D inflow column
   /// ("Rheology", "Dirichlet" or "None"; see ndam::InflowPressure).
   std::string interface_pressure = "Rheology";
@@ -49,6 +55,7 @@ struct Decomposition {
 };
 
 class SubdomainFactory;
+class DomainManager;
 
 class CoupledModel final : public core::Stepper {
  public:
@@ -66,6 +73,7 @@ class CoupledModel final : public core::Stepper {
   void step(double dt) override;
   core::Health check() const override;
   void accept() override;
+  bool adapt() override;
   core::Profile profile() const override;
   core::MassBalance mass_balance() const override;
   void write_fields(io::FieldWriter& w) const override;
@@ -87,6 +95,10 @@ class CoupledModel final : public core::Stepper {
   void replace_parts(std::size_t first, std::size_t count, std::vector<Subdomain> with);
   /// Models and interface positions of the current layout.
   Decomposition layout() const;
+  /// The runtime domain manager (Layout = Dynamic): adapt() lets it move the interfaces.
+  void set_domain_manager(std::unique_ptr<DomainManager> m);
+  const DomainManager* domain_manager() const { return manager_.get(); }
+  std::shared_ptr<const SubdomainFactory> factory() const { return factory_; }
 
  private:
   void reconnect();  // interfaces between the current parts, and the step order
@@ -99,6 +111,7 @@ class CoupledModel final : public core::Stepper {
   long steps_ = 0;
   double initial_mass_ = 0.0;
   double retired_inflow_ = 0.0, retired_outflow_ = 0.0;  // booked by replaced end parts
+  std::unique_ptr<DomainManager> manager_;
 };
 
 }  // namespace granflow::coupling

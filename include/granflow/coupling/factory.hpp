@@ -50,13 +50,18 @@ class SubdomainFactory {
   double dx_2d() const;
   const InterfaceOptions& interface_options() const { return iface_; }
   const core::Channel& channel() const { return channel_; }
+  const core::Material& material() const { return material_; }
+  const dam::DamPhysics& dam_physics() const { return dam_phys_; }
+  const dam::DamConfig& dam_config() const { return dam_cfg_; }
+  /// The channel-wide 2D configuration (only when has_2d()).
+  const TwoD& two_d() const { return *two_d_; }
 
   /// t = 0: the scene's initial state on [x0, x1] (the DAM's initial condition; the N-DAM's
   /// initial layer at rest).
   Subdomain initial(const std::string& kind, double x0, double x1, Neighbours n) const;
   /// A DAM on [x0, x1] with the given cell averages (cells of size dx_1d()).
   Subdomain dam(double x0, double x1, std::vector<double> h, std::vector<double> hu, double t,
-                long steps, Neighbours n) const;
+                long steps, Neighbours n, bool staggered = false) const;
   /// An N-DAM box on [x0, x1] from a state of its grid; `stats` continues the run's counters.
   Subdomain ndam(double x0, double x1, const ndam::NdamState& s,
                  const ndam::NdamStatistics& stats, Neighbours n) const;

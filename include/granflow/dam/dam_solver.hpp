@@ -143,10 +143,13 @@ class DamSolver final : public core::Stepper {
   /// Replaces the boundary of one end (0 left, 1 right) after construction: the coupled model
   /// reconnects its interfaces after a change of its parts.
   void set_boundary(int side, DamBoundary b);
-  /// The state on the primary grid from the cell averages h, hu (cells() each) at time t after
-  /// `steps` steps; the ledger restarts from this mass (a subdomain rebuilt from the cells of its
-  /// predecessor or from 2D columns; the coupled model keeps the run's ledger).
-  void set_cells(std::vector<double> h, std::vector<double> hu, double t, long steps);
+  /// The state from cell averages h, hu at time t after `steps` steps: on the primary grid
+  /// (cells() values) or on the staggered grid (cells() + 1 values, the end cells the averages
+  /// over their halves inside [x_left, x_right]). The ledger restarts from this mass (a
+  /// subdomain rebuilt from the cells of its predecessor or from 2D columns; the coupled model
+  /// keeps the run's ledger).
+  void set_cells(std::vector<double> h, std::vector<double> hu, double t, long steps,
+                 bool staggered = false);
 
  private:
   static constexpr int G = 2;  // ghost cells per side

@@ -36,6 +36,38 @@ struct NdamStatistics {
     dt_min = dt_max == 0.0 ? dt : std::min(dt_min, dt);
     dt_max = std::max(dt_max, dt);
   }
+  /// The counters of two boxes whose parts became one box (the domain manager).
+  void merge(const NdamStatistics& o) {
+    dt_min = dt_max == 0.0 ? o.dt_min : (o.dt_max == 0.0 ? dt_min : std::min(dt_min, o.dt_min));
+    dt_max = std::max(dt_max, o.dt_max);
+    max_divergence = std::max(max_divergence, o.max_divergence);
+    pressure_solves += o.pressure_solves;
+    pressure_iterations += o.pressure_iterations;
+    momentum_solves += o.momentum_solves;
+    momentum_iterations += o.momentum_iterations;
+    unconverged_solves += o.unconverged_solves;
+    worst_pressure_residual = std::max(worst_pressure_residual, o.worst_pressure_residual);
+    worst_momentum_residual = std::max(worst_momentum_residual, o.worst_momentum_residual);
+    retired_pressure_setups += o.retired_pressure_setups;
+    retired_momentum_setups += o.retired_momentum_setups;
+    retired_pressure_patterns += o.retired_pressure_patterns;
+    retired_momentum_patterns += o.retired_momentum_patterns;
+    retired_pressure_setup_seconds += o.retired_pressure_setup_seconds;
+    retired_momentum_setup_seconds += o.retired_momentum_setup_seconds;
+    newton_solves += o.newton_solves;
+    newton_iterations += o.newton_iterations;
+    newton_krylov += o.newton_krylov;
+    newton_evaluations += o.newton_evaluations;
+    newton_max_iterations = std::max(newton_max_iterations, o.newton_max_iterations);
+    newton_continued += o.newton_continued;
+    newton_continued_worst = std::max(newton_continued_worst, o.newton_continued_worst);
+    newton_worst_residual = std::max(newton_worst_residual, o.newton_worst_residual);
+    newton_seconds += o.newton_seconds;
+    total_momentum += o.total_momentum;
+    total_pressure += o.total_pressure;
+    total_markers += o.total_markers;
+    total_other += o.total_other;
+  }
   /// Adds the last step's phase times to the totals (at accept()).
   void accept_times() {
     total_momentum += step_momentum;
