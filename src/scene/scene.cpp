@@ -73,23 +73,28 @@ Scene load(const std::string& file) {
   Scene s;
   s.file = file;
   s.dir = std::filesystem::path(file).parent_path().string();
-  auto user = params::read_xml(file);
-  user->setName("granflow");
-  // The model decides which sublists exist, so read and check it first.
+  // Values are converted strictly from the XML text (params::to_parameter_list) against the
+  // model's valid list, so that every type, text and range is checked before Teuchos fills in
+  // the defaults. The model decides which sublists exist, so its element is read first (a
+  // duplicate or a wrong type of it is reported by the full read below).
+  const auto doc = params::parse_xml(file);
   std::string model = "DAM";
-  if (user->isParameter("Model")) {
-    if (!user->isType<std::string>("Model"))
-      throw params::InputError(file + ": parameter 'granflow->Model' must be a string; allowed: " +
-                               std::string("DAM, N-DAM"));
-    model = user->get<std::string>("Model");
+  for (int c = 0; c < doc.root.numChildren(); ++c) {
+    const auto& x = doc.root.getChild(c);
+    if (x.getTag() != "Parameter" || !x.hasAttribute("name") || x.getAttribute("name") != "Model" ||
+        !x.hasAttribute("value"))
+      continue;
+    model = x.getAttribute("value");
     const auto& names = model_names();
     if (std::find(names.begin(), names.end(), model) == names.end()) {
       std::string allowed;
       for (const auto& n : names) allowed += (allowed.empty() ? "" : ", ") + n;
-      throw params::InputError(file + ": parameter 'granflow->Model' = " + model +
+      throw params::InputError(file + ": parameter 'granflow->Model' = " + params::shown(model) +
                                ": unknown model; allowed: " + allowed);
     }
+    break;
   }
+  auto user = params::to_parameter_list(doc, valid_parameters(model).get());
   s.user = Teuchos::rcp(new ParameterList(*user));
   params::validate_and_set_defaults(*user, *valid_parameters(model), file);
   s.params = user;

@@ -18,11 +18,14 @@ granflow_cli_test(unknown_option 1 "unknown option '--frobnicate'" --frobnicate)
 # bad input (scene files in tests/cli/)
 granflow_cli_test(missing_file 2 "cannot open scene file '.*does_not_exist.xml'"
                   ${_cli}/does_not_exist.xml)
-granflow_cli_test(malformed_xml 2 "not a valid ParameterList XML" ${_cli}/bad_malformed.xml)
+granflow_cli_test(malformed_xml 2 "bad_malformed.xml.* is not well-formed XML.*line 3" ${_cli}/bad_malformed.xml)
 granflow_cli_test(misspelt_name 2 "Bed fricton angle.*(valid|Valid)" ${_cli}/bad_misspelt.xml)
-granflow_cli_test(wrong_type 2 "wrong type.*Cells" ${_cli}/bad_wrong_type.xml)
-granflow_cli_test(out_of_range 2 "CFL.*Max: 0\\.5.*Value entered: 0\\.8" ${_cli}/bad_out_of_range.xml)
-granflow_cli_test(bad_enum 2 "Scheme.*Minmod, Beam-Warming.*Value entered: Superbee" ${_cli}/bad_enum.xml)
+granflow_cli_test(wrong_type 2 "parameter .granflow->DAM->Cells. = .100\\.0.: given as type .double.; allowed: type .int."
+                  ${_cli}/bad_wrong_type.xml)
+granflow_cli_test(out_of_range 2 "parameter .granflow->DAM->CFL. = .0\\.8.: out of range; allowed: a decimal number in \\[0\\.001, 0\\.5\\]"
+                  ${_cli}/bad_out_of_range.xml)
+granflow_cli_test(bad_enum 2 "parameter .granflow->DAM->Scheme. = .Superbee.: not an allowed value; allowed: one of Minmod, Beam-Warming"
+                  ${_cli}/bad_enum.xml)
 granflow_cli_test(delta_above_phi 2 "Bed friction angle' = 35.*Internal friction angle' = 30"
                   ${_cli}/bad_delta_above_phi.xml)
 granflow_cli_test(inflow_on_wall 2 "Left boundary->Inflow depth.*Wall.*allowed only with Type = Inflow"
@@ -31,7 +34,7 @@ granflow_cli_test(one_sided_periodic 2 "Right boundary->Type' = Outflow.*periodi
                   ${_cli}/bad_one_sided_periodic.xml)
 granflow_cli_test(missing_series_file 2 "Inflow series file' = .*no_such_series.csv.*cannot open"
                   ${_cli}/bad_missing_series.xml)
-granflow_cli_test(unknown_model 2 "Model' = Navier.*allowed" ${_cli}/bad_unknown_model.xml)
+granflow_cli_test(unknown_model 2 "Model' = .Navier.: unknown model; allowed: DAM, N-DAM, Coupled" ${_cli}/bad_unknown_model.xml)
 granflow_cli_test(ic_parameter_of_other_type 2 "Initial condition->Left depth.*not used by initial condition Type 'Uniform'"
                   ${_cli}/bad_ic_mismatch.xml)
 granflow_cli_test(dam_position_outside 2 "Position' = 2.*outside the channel.*\\[0, 1\\]"
