@@ -13,8 +13,11 @@
 #include "granflow/coupling/build.hpp"
 #include "granflow/params/parameters.hpp"
 
+#include <cmath>
 #include <filesystem>
 #include <sstream>
+
+#include <unistd.h>
 
 namespace granflow::scene {
 
@@ -27,6 +30,9 @@ const std::vector<std::string>& model_names() {
 }
 
 namespace {
+// Output times a run may have (End time / Interval); see check_output.
+constexpr double kMaxOutputTimes = 100000;
+
 void add_scene_header(ParameterList& pl, const std::string& model) {
   params::add_string(pl, "Name", "unnamed", "scene name, echoed in summary.json");
   params::add_string(pl, "Description", "", "free text: what the scene reproduces");
@@ -38,6 +44,45 @@ void add_scene_header(ParameterList& pl, const std::string& model) {
 }
 void add(ParameterList& pl, const RCP<const ParameterList>& sub, const std::string& doc) {
   pl.set(sub->name(), *sub, doc);
+}
+
+// The run directory must be one that the run can create or write into, and the output
+// schedule one that the run can write: both would otherwise fail (exit 4) only once the run
+// has started, after --check passed.
+void check_output(const core::RunControl& rc, const ParameterList& out) {
+  namespace fs = std::filesystem;
+  const std::string& dir = rc.directory;
+  if (dir.find_first_not_of(" \t\r\n") == std::string::npos)
+    params::fail(out, "Directory", params::shown(dir),
+                 "empty; allowed: the path of a directory (created if missing)");
+  // The deepest part of the path that exists must be a directory: the rest is created.
+  std::error_code ec;
+  fs::path existing = fs::path(dir);
+  while (!existing.empty() && !fs::exists(existing, ec)) existing = existing.parent_path();
+  if (existing.empty()) existing = ".";
+  if (!fs::is_directory(existing, ec))
+    params::fail(out, "Directory", params::shown(dir),
+                 existing == fs::path(dir)
+                     ? "exists and is not a directory; allowed: a directory, or a path to create"
+                     : "'" + existing.string() + "' is a file, so the directory cannot be "
+                                                 "created there; allowed: a path whose existing "
+                                                 "part is a directory");
+  if (access(existing.c_str(), W_OK | X_OK) != 0)
+    params::fail(out, "Directory", params::shown(dir),
+                 "'" + existing.string() + "' is not writable; allowed: a writable directory");
+  // Every output time writes a profiles block, a fields snapshot and the checkpoint, and the
+  // time step is shortened to hit it: more output times than this is a mistake in Interval
+  // (1e-9 s to 0.1 s would be 1e8 snapshots and 1e8 steps), not a run.
+  const double count = rc.end_time / rc.output_interval;
+  if (count > kMaxOutputTimes) {
+    std::ostringstream why;
+    why << "End time " << params::str(rc.end_time) << " s / Interval gives "
+        << params::str(std::floor(count)) << " output times (each writes profiles, fields and a "
+        << "checkpoint and ends a time step); allowed: at most " << params::str(kMaxOutputTimes)
+        << " output times, i.e. Interval >= " << params::str(rc.end_time / kMaxOutputTimes)
+        << " s for this End time";
+    params::fail(out, "Interval", params::str(rc.output_interval), why.str());
+  }
 }
 }  // namespace
 
@@ -110,7 +155,9 @@ Scene load(const std::string& file) {
         s.dir);
     (void)m;
     (void)c;
-    core::RunControl::from_parameters(user->sublist("Time"), user->sublist("Output"), s.dir);
+    const auto rc =
+        core::RunControl::from_parameters(user->sublist("Time"), user->sublist("Output"), s.dir);
+    check_output(rc, user->sublist("Output"));
   } catch (const params::InputError& e) {
     throw params::InputError(file + ": " + e.what());
   }
