@@ -10,7 +10,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
-#include <set>
+#include <map>
 #include <sstream>
 
 namespace granflow::params {
@@ -545,7 +545,7 @@ struct Reader {
 
   void read_list(const Teuchos::XMLObject& x, const std::string& path, ParameterList& out,
                  const ParameterList* valid, bool names_checked) const {
-    std::set<std::string> seen;
+    std::map<std::string, std::string> seen;  // name -> text of its first value
     for (int c = 0; c < x.numChildren(); ++c) {
       const auto& child = x.getChild(c);
       const std::string& tag = child.getTag();
@@ -559,8 +559,13 @@ struct Reader {
       const std::string p = path + "->" + name;
       std::string why;
       if (!check_text(name, why)) fail(param(path + "->" + shown(name)), "the name is " + why);
-      if (!seen.insert(name).second)
-        fail(param(p), "given twice in list '" + path + "'; allowed: once");
+      const std::string text_here =
+          tag == "Parameter" && child.hasAttribute("value") ? child.getAttribute("value") : "";
+      if (const auto [it, fresh] = seen.emplace(name, text_here); !fresh)
+        fail(param(p) + (tag == "Parameter" ? " = " + shown(text_here) : ""),
+             "given twice in list '" + path + "'" +
+                 (tag == "Parameter" ? " (first = " + shown(it->second) + ")" : "") +
+                 "; allowed: once");
       const Teuchos::ParameterEntry* ve = valid ? valid->getEntryPtr(name) : nullptr;
       if (valid && names_checked && !ve)
         fail(param(p), std::string(tag == "Parameter" ? "unknown parameter" : "unknown list") +

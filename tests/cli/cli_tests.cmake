@@ -85,3 +85,93 @@ foreach(_s ${_scenes})
   get_filename_component(_n ${_s} NAME_WE)
   granflow_cli_test(scene_${_n} 0 "valid scene '${_n}'" --check ${_s})
 endforeach()
+
+# --- malformed values: each reproduction of issue 13 (items 1 and 7) is a shipped scene with one
+# change (mutate.py edits it), refused by --check and by a run with exit 2 and a message that
+# names the parameter's full path, the text as entered and what is allowed.
+find_package(Python3 COMPONENTS Interpreter)
+if(Python3_Interpreter_FOUND)
+  set(_in ${PROJECT_SOURCE_DIR}/inputs)
+  function(granflow_mutant_test name scene regex)
+    add_test(NAME cli.value_${name}
+             COMMAND ${Python3_EXECUTABLE} ${_cli}/mutate.py --exe $<TARGET_FILE:granflow>
+                     --scene ${_in}/${scene} --out mutants/${name} --code 2 --regex "${regex}"
+                     ${ARGN}
+             WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+    set_tests_properties(cli.value_${name} PROPERTIES LABELS "cli")
+  endfunction()
+  set(_slope "Channel->Slope angle")
+  set(_slope_re "parameter 'granflow->Channel->Slope angle' = ")
+  set(_double_re "allowed: a decimal number in \\[0, 89\\]")
+  granflow_mutant_test(double_abc setup2_dam.xml "${_slope_re}\"abc\": not a decimal number.*${_double_re}"
+                       --set ${_slope} abc)
+  granflow_mutant_test(double_empty setup2_dam.xml "${_slope_re}\"\": empty, not a number.*${_double_re}"
+                       --set ${_slope} {empty})
+  granflow_mutant_test(double_trailing_text setup2_dam.xml "${_slope_re}\"50abc\": not a decimal number.*${_double_re}"
+                       --set ${_slope} 50abc)
+  granflow_mutant_test(double_hex setup2_dam.xml "${_slope_re}\"0x10\": not a decimal number.*${_double_re}"
+                       --set ${_slope} 0x10)
+  granflow_mutant_test(double_nan setup2_dam.xml "${_slope_re}\"nan\": not a decimal number"
+                       --set ${_slope} nan)
+  granflow_mutant_test(double_overflow setup2_dam.xml "${_slope_re}\"1e999\": too large for a double"
+                       --set ${_slope} 1e999)
+  granflow_mutant_test(double_given_as_string setup2_dam.xml
+                       "${_slope_re}\"abc\": given as type \"string\"; allowed: type \"double\" \\(a decimal number in \\[0, 89\\]\\)"
+                       --type ${_slope} string --set ${_slope} abc)
+  granflow_mutant_test(inflow_depth_string_nan setup2_dam.xml
+                       "parameter 'granflow->Channel->Left boundary->Inflow depth' = \"nan\": given as type \"string\"; allowed: type \"double\""
+                       --type "Channel->Left boundary->Inflow depth" string
+                       --set "Channel->Left boundary->Inflow depth" nan)
+  granflow_mutant_test(end_time_string_nan setup2_dam.xml
+                       "parameter 'granflow->Time->End time' = \"nan\": given as type \"string\""
+                       --type "Time->End time" string --set "Time->End time" nan)
+  set(_cells_re "parameter 'granflow->DAM->Cells' = ")
+  set(_int_re "allowed: an integer in \\[4, 100000000\\]")
+  granflow_mutant_test(int_wraps setup2_dam.xml "${_cells_re}\"4294967696\": outside the range of an int.*${_int_re}"
+                       --set DAM->Cells 4294967696)
+  granflow_mutant_test(int_fraction setup2_dam.xml "${_cells_re}\"50.9\": not an integer.*${_int_re}"
+                       --set DAM->Cells 50.9)
+  granflow_mutant_test(int_trailing_text setup2_dam.xml "${_cells_re}\"8x\": not an integer.*${_int_re}"
+                       --set DAM->Cells 8x)
+  granflow_mutant_test(int_abc_says_abc setup2_dam.xml "${_cells_re}\"abc\": not an integer.*${_int_re}"
+                       --set DAM->Cells abc)
+  set(_if "Decomposition->Interfaces")
+  set(_if_re "parameter 'granflow->Decomposition->Interfaces' = ")
+  granflow_mutant_test(array_nan setup2_coupled.xml "${_if_re}\"{nan, 0.7}\": entry 1 \\(\"nan\"\\) is not a decimal number"
+                       --set ${_if} "{nan, 0.7}")
+  granflow_mutant_test(array_abc setup2_coupled.xml "${_if_re}\"{abc, 0.7}\": entry 1 \\(\"abc\"\\) is not a decimal number"
+                       --set ${_if} "{abc, 0.7}")
+  granflow_mutant_test(array_no_comma setup2_coupled.xml
+                       "${_if_re}\"{0.5 0.7}\": entry 1 \\(\"0.5 0.7\"\\) is not a decimal number.*separated by commas"
+                       --set ${_if} "{0.5 0.7}")
+  granflow_mutant_test(array_entry_out_of_range setup2_coupled.xml
+                       "${_if_re}\"{0.2, -1}\": entry 2 \\(\"-1\"\\) is out of range; allowed: .*each entry in \\[0, 1e\\+06\\]"
+                       --set ${_if} "{0.2, -1}")
+  granflow_mutant_test(duplicate setup2_dam.xml
+                       "${_slope_re}\"45\": given twice in list 'granflow->Channel' \\(first = \"50\"\\); allowed: once"
+                       --duplicate ${_slope} 45)
+  # item 7: input parsing
+  granflow_mutant_test(nested_10000_lists setup2_dam.xml
+                       "setup2_dam.xml' line [0-9]+: lists are nested more than 32 levels deep"
+                       --nest 10000)
+  granflow_mutant_test(name_not_utf8 setup2_dam.xml
+                       "parameter 'granflow->Name' = \"setup2.xff_dam\": not valid UTF-8 text \\(byte 0xff"
+                       --set Name "setup2\\xff_dam")
+  granflow_mutant_test(output_directory_is_a_file setup2_dam.xml
+                       "parameter 'granflow->Output->Directory' = \".*existing_file\": exists and is not a directory"
+                       --set Output->Directory "{existing_file}")
+  granflow_mutant_test(output_directory_inside_a_file setup2_dam.xml
+                       "parameter 'granflow->Output->Directory' = .*existing_file/run.: '.*existing_file' is a file"
+                       --set Output->Directory "{existing_file}/run")
+  granflow_mutant_test(output_directory_empty setup2_dam.xml
+                       "parameter 'granflow->Output->Directory' = \"\": empty"
+                       --set Output->Directory {empty})
+  granflow_mutant_test(output_interval_1e8_snapshots setup2_dam.xml
+                       "parameter 'granflow->Output->Interval' = 1e-09: End time 0.1 s / Interval gives 100000000 output times.*at most 100000"
+                       --set "Time->End time" 0.1 --set Output->Interval 1e-9)
+else()
+  message(WARNING "python3 not found: the cli.value_* and fuzz tests are not registered")
+endif()
+granflow_cli_test(help_with_extra_argument 1 "--help takes no other argument" --help --check)
+granflow_cli_test(help_with_unknown_option 1 "unknown option '--bogus'" --help --bogus)
+granflow_cli_test(parameters_with_extra_argument 1 "--parameters takes no other argument" --parameters extra)
