@@ -354,7 +354,7 @@ std::size_t line_of(const std::string& text, std::size_t pos) {
 // attribute values skipped). The XML parser builds the tree without recursion, but Teuchos
 // copies nested lists recursively, so a deep file must be refused before either sees it.
 void check_nesting(const std::string& text, const std::string& file) {
-  int depth = 0;
+  int depth = 0, elements = 0;
   std::size_t i = 0;
   const auto skip_to = [&](const char* end, std::size_t from) {
     const auto e = text.find(end, from);
@@ -378,6 +378,7 @@ void check_nesting(const std::string& text, const std::string& file) {
       else if (c == '>') break;
     }
     if (j >= text.size()) return;  // an unterminated tag: the parser reports it with its line
+    ++elements;
     if (text[j - 1] != '/' && ++depth > kMaxNesting)
       throw InputError("scene file '" + file + "' line " + std::to_string(line_of(text, i)) +
                        ": lists are nested more than " + std::to_string(kMaxNesting) +
@@ -385,6 +386,10 @@ void check_nesting(const std::string& text, const std::string& file) {
                        " (a scene needs 5)");
     i = j + 1;
   }
+  if (elements == 0)
+    throw InputError("scene file '" + file + "' line " + std::to_string(line_of(text, text.size())) +
+                     ": holds no XML element (empty, or only comments); allowed: "
+                     "<ParameterList name=\"granflow\"> ... </ParameterList>");
 }
 
 // Does Teuchos validate the names inside this valid list? Not when it was declared as a
@@ -553,8 +558,13 @@ struct Reader {
         fail("list '" + path + "'", "element <" + tag +
                                         "> is not allowed here; allowed: <Parameter> and "
                                         "<ParameterList>");
-      if (!child.hasAttribute("name"))
-        fail("list '" + path + "'", "a <" + tag + "> has no name; allowed: name=\"...\"");
+      if (!child.hasAttribute("name")) {
+        std::string seen_attrs;  // what there is of the element, to find it in the file
+        for (const char* a : {"type", "value"})
+          if (child.hasAttribute(a)) seen_attrs += std::string(" ") + a + "=" + shown(child.getAttribute(a));
+        fail("list '" + path + "'", "element " + std::to_string(c + 1) + ", <" + tag +
+                                        seen_attrs + ">, has no name; allowed: name=\"...\"");
+      }
       const std::string& name = child.getAttribute("name");
       const std::string p = path + "->" + name;
       std::string why;
