@@ -10,7 +10,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <cctype>
 #include <map>
+#include <set>
 #include <sstream>
 
 namespace granflow::params {
@@ -548,6 +550,31 @@ struct Reader {
     return out.empty() ? "none" : out;
   }
 
+  // Attributes other than those Teuchos reads would be ignored silently (a second value
+  // written as vlaue="45", say). XMLObject lists no attributes, but its header holds them all,
+  // sorted by name, as <Tag a="raw value" b="raw value">; the value of a known attribute is
+  // skipped by its length (it may contain a quote), so the first unknown one is found.
+  void check_attributes(const Teuchos::XMLObject& x, const std::string& where) const {
+    static const std::set<std::string> parameter{"name", "type", "value", "docString",
+                                                 "isDefault", "isUsed", "id"};
+    static const std::set<std::string> list{"name", "id"};
+    const auto& known = x.getTag() == "Parameter" ? parameter : list;
+    const std::string h = x.header();
+    std::size_t i = 1 + x.getTag().size();
+    while (i < h.size() && h[i] == ' ') {
+      const std::size_t eq = h.find("=\"", i + 1);
+      if (eq == std::string::npos) return;
+      const std::string a = h.substr(i + 1, eq - i - 1);
+      if (!known.count(a) || !x.hasAttribute(a)) {
+        std::string allowed;
+        for (const auto& k : known) allowed += (allowed.empty() ? "" : ", ") + k;
+        fail(where, "attribute " + shown(a) + " of <" + x.getTag() +
+                        "> is not read by granflow; allowed: " + allowed);
+      }
+      i = eq + 2 + x.getAttribute(a).size() + 1;  // past the closing quote
+    }
+  }
+
   void read_list(const Teuchos::XMLObject& x, const std::string& path, ParameterList& out,
                  const ParameterList* valid, bool names_checked) const {
     std::map<std::string, std::string> seen;  // name -> text of its first value
@@ -568,6 +595,7 @@ struct Reader {
       const std::string& name = child.getAttribute("name");
       const std::string p = path + "->" + name;
       std::string why;
+      check_attributes(child, param(p));
       if (!check_text(name, why)) fail(param(path + "->" + shown(name)), "the name is " + why);
       const std::string text_here =
           tag == "Parameter" && child.hasAttribute("value") ? child.getAttribute("value") : "";

@@ -239,7 +239,11 @@ std::string parameter_reference() {
         "(`getValidParameters()`); do not edit by hand. A test checks that this file matches "
         "the code.\n\n"
      << "A scene is a Teuchos ParameterList XML file whose top list holds the parameters below. "
-        "Which sublists are valid depends on `Model`.\n";
+        "Which sublists are valid depends on `Model`. Each parameter must be given with the type "
+        "listed here, at most once per list; values are read strictly (a double is one decimal "
+        "number, an int a whole number that fits an int, a bool `true` or `false`, an array "
+        "`{a, b}` with comma-separated entries, text UTF-8), and anything else stops the run "
+        "with exit code 2.\n";
   for (const auto& m : model_names()) {
     os << "\n## Model `" << m << "`\n\n";
     os << params::reference_markdown(*valid_parameters(m), 3);

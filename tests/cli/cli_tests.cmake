@@ -150,6 +150,12 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(duplicate setup2_dam.xml
                        "${_slope_re}\"45\": given twice in list 'granflow->Channel' \\(first = \"50\"\\); allowed: once"
                        --duplicate ${_slope} 45)
+  granflow_mutant_test(unknown_attribute setup2_dam.xml
+                       "parameter .granflow->Channel->Slope angle.: attribute \"vlaue\" of <Parameter> is not read by granflow"
+                       --attr ${_slope} vlaue 45)
+  granflow_mutant_test(bool_not_true_or_false setup2_ndam.xml
+                       "parameter 'granflow->N-DAM->Free surface' = \"1\": not a bool; allowed: true or false"
+                       --set "N-DAM->Free surface" 1)
   # item 7: input parsing
   granflow_mutant_test(nested_10000_lists setup2_dam.xml
                        "setup2_dam.xml' line [0-9]+: lists are nested more than 32 levels deep"

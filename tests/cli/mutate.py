@@ -9,7 +9,8 @@ nested <ParameterList> lines of the shipped scenes.
 
 As a test:
   mutate.py --exe granflow --scene inputs/setup2_dam.xml --out DIR
-            [--set PATH VALUE] [--type PATH TYPE] [--duplicate PATH VALUE] [--nest N]
+            [--set PATH VALUE] [--type PATH TYPE] [--duplicate PATH VALUE]
+            [--attr PATH ATTRIBUTE VALUE] [--nest N]
             --code 2 --regex 'parameter .granflow->Channel->Slope angle. = "abc"'
 VALUE may hold Python escapes (\\xff is the byte 0xff); "{existing_file}" in it is replaced by
 the path of a file the script creates, and a VALUE of "{empty}" is the empty text (CMake drops
@@ -100,6 +101,8 @@ def main():
     ap.add_argument("--type", nargs=2, action="append", default=[], metavar=("PATH", "TYPE"))
     ap.add_argument("--duplicate", nargs=2, action="append", default=[],
                     metavar=("PATH", "VALUE"))
+    ap.add_argument("--attr", nargs=3, action="append", default=[],
+                    metavar=("PATH", "ATTRIBUTE", "VALUE"), help="add an attribute")
     ap.add_argument("--nest", type=int, default=0)
     ap.add_argument("--code", type=int, required=True)
     ap.add_argument("--regex", required=True)
@@ -118,6 +121,9 @@ def main():
         set_value(lines, path, sub(v))
     for path, v in a.duplicate:
         duplicate(lines, path, sub(v))
+    for path, name, v in a.attr:
+        i = find(lines, path)
+        lines[i] = lines[i].replace(b"<Parameter ", b"<Parameter " + name.encode() + b'="' + sub(v) + b'" ', 1)
     if a.nest:
         nest(lines, a.nest)
     mutant = os.path.join(a.out, os.path.basename(a.scene))
