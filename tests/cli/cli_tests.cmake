@@ -177,7 +177,7 @@ if(Python3_Interpreter_FOUND)
                        --set "Time->End time" 0.1 --set Output->Interval 1e-9)
   # Fuzzing (issue 13, item 9): 8 mutants of each shipped scene with a fixed seed, each checked
   # with --check and, when valid, run for 5 steps; see fuzz_scenes.py for what is asserted.
-  # 112 mutants took 38 s on 2 idle cores (2 granflow processes at a time).
+  # 112 mutants (about 20 of them run): 38 s alone on 2 cores, 50 s inside the full ctest -j2.
   add_test(NAME fuzz.shipped_scenes
            COMMAND ${Python3_EXECUTABLE} ${_cli}/fuzz_scenes.py --exe $<TARGET_FILE:granflow>
                    --inputs ${_in} --out fuzz_scenes --mutants 8 --seed 13
