@@ -7,6 +7,8 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <vector>
 
 namespace granflow::core {
 
@@ -36,15 +38,34 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
   int lineno = 0;
   while (std::getline(in, line)) {
     ++lineno;
-    if (line.empty() || line[0] == '#') continue;
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::istringstream ls(line);
-    double t, h, u;
-    if (!(ls >> t >> h >> u)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF files
+    if (line.find_first_not_of(" \t") == std::string::npos || line[0] == '#') continue;
+    // Exactly three fields t,h,u (commas, or blanks in a file without commas), each a whole
+    // number by params::parse_double: "0.1abc" or a fourth column is an error, not 0.1.
+    std::vector<std::string> f;
+    if (line.find(',') != std::string::npos) {
+      std::size_t a = 0, b;
+      while ((b = line.find(',', a)) != std::string::npos) f.push_back(line.substr(a, b - a)), a = b + 1;
+      f.push_back(line.substr(a));
+    } else {
+      std::istringstream ls(line);
+      for (std::string w; ls >> w;) f.push_back(w);
+    }
+    double v[3];
+    std::string why = "has " + std::to_string(f.size()) + " fields";
+    bool ok = f.size() == 3;
+    for (std::size_t k = 0; ok && k < 3; ++k)
+      if (!params::parse_double(f[k], v[k], why)) {
+        ok = false;
+        why = "field " + std::to_string(k + 1) + " " + params::shown(f[k]) + " is " + why;
+      }
+    if (!ok) {
       if (s.t_.empty() && lineno == 1) continue;  // header
       throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
-                               std::to_string(lineno) + " is not 't,h,u' numbers");
+                               std::to_string(lineno) + " " + why +
+                               "; allowed: three numbers t,h,u separated by commas");
     }
+    const double t = v[0], h = v[1], u = v[2];
     if (!std::isfinite(t) || !std::isfinite(h) || !std::isfinite(u) || h < 0.0 ||
         (!s.t_.empty() && t <= s.t_.back()))
       throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +

@@ -204,8 +204,12 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   s["interfaces"] = {{"positions_over_time", layout}, {"moves", 0}};
   s["outputs"] = {{"snapshots", outputs_}, {"directory", rc_.directory}};
   if (!io_rank()) return;
+  // Serialise before the file is opened, and replace bytes that are not UTF-8 instead of
+  // throwing: a string that slipped through must not leave a 0-byte summary.json at the end of
+  // a run whose results are on disk.
+  const std::string text = s.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
   std::ofstream f(rc_.directory + "/summary.json");
-  f << s.dump(2) << "\n";
+  f << text << "\n";
 }
 
 void Simulation::show_progress(bool final) {
