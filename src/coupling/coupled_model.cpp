@@ -1,5 +1,6 @@
 #include "granflow/coupling/coupled_model.hpp"
 
+#include "granflow/coupling/conversion.hpp"
 #include "granflow/coupling/domain_manager.hpp"
 #include "granflow/coupling/factory.hpp"
 
@@ -296,15 +297,70 @@ core::MassBalance CoupledModel::mass_balance() const {
   return m;
 }
 
+// One channel-wide mesh per kind, whatever the layout, so that a field series stays one
+// series in ParaView while the interfaces move: "dam", the depth-averaged state h, u_mean, hu
+// and the model (1 or 2) of every DAM-sized cell of [0, L] (from the 1D cells and the 2D
+// columns alike); "ndam", the 2D fields on the channel-wide 2D grid, with flag -1 (and zero
+// fields) in the columns that are 1D at this output.
 void CoupledModel::write_fields(io::FieldWriter& w) const {
-  for (std::size_t i = 0; i < parts_.size(); ++i) {
+  const double L = parts_.back().x1;
+  const ChannelField f = channel_field(parts_, 0, parts_.size());
+  const double dx1 = factory_ ? factory_->dx_1d() : parts_.front().x1 - parts_.front().x0;
+  const int n1 = static_cast<int>(std::lround(L / dx1));
+  std::vector<double> xn(static_cast<std::size_t>(n1 + 1)), h, u, hu, model;
+  for (int j = 0; j <= n1; ++j) xn[static_cast<std::size_t>(j)] = j == n1 ? L : j * dx1;
+  for (int j = 0; j < n1; ++j) {
+    const double a = xn[static_cast<std::size_t>(j)], b = xn[static_cast<std::size_t>(j + 1)];
+    const auto v = f.average(a, b);
+    h.push_back(v[0]);
+    hu.push_back(v[1]);
+    u.push_back(v[0] > 0.0 ? v[1] / v[0] : 0.0);
+    const double xc = 0.5 * (a + b);
+    std::size_t p = 0;
+    while (p + 1 < parts_.size() && xc > parts_[p].x1) ++p;
+    model.push_back(parts_[p].one_d() ? 1.0 : 2.0);
+  }
+  auto& m1 = w.add_mesh("dam", std::move(xn), {0.0, 1.0});
+  m1.cell_fields.emplace_back("h", h);
+  m1.cell_fields.emplace_back("u", u);
+  m1.cell_fields.emplace_back("hu", hu);
+  m1.cell_fields.emplace_back("model", model);
+  if (!factory_ || !factory_->has_2d()) return;
+  const auto& g = factory_->two_d().cfg.grid;
+  const double dx2 = factory_->dx_2d();
+  const int nx = static_cast<int>(std::lround(L / dx2)), nz = g.nz;
+  std::vector<double> x2(static_cast<std::size_t>(nx + 1)), z2(static_cast<std::size_t>(nz + 1));
+  for (int i = 0; i <= nx; ++i) x2[static_cast<std::size_t>(i)] = i == nx ? L : i * dx2;
+  for (int k = 0; k <= nz; ++k) z2[static_cast<std::size_t>(k)] = k * g.dz();
+  std::vector<std::pair<std::string, std::vector<double>>> fields;
+  for (const auto& p : parts_) {
+    if (!p.ndam) continue;
     io::FieldWriter part;
-    parts_[i].model->write_fields(part);
-    for (const auto& m : part.meshes()) {
-      auto& copy = w.add_mesh(m.name + "_" + std::to_string(i), m.x_nodes, m.z_nodes);
-      copy.cell_fields = m.cell_fields;
+    p.model->write_fields(part);
+    const auto& mesh = part.meshes().front();
+    const int nxp = static_cast<int>(mesh.x_nodes.size()) - 1;
+    const int off = static_cast<int>(std::lround(p.x0 / dx2));
+    for (const auto& [name, values] : mesh.cell_fields) {
+      auto it = std::find_if(fields.begin(), fields.end(),
+                             [&](const auto& q) { return q.first == name; });
+      if (it == fields.end()) {
+        fields.emplace_back(name, std::vector<double>(static_cast<std::size_t>(nx * nz),
+                                                      name == "flag" ? -1.0 : 0.0));
+        it = fields.end() - 1;
+      }
+      for (int k = 0; k < nz; ++k)
+        for (int i = 0; i < nxp && off + i < nx; ++i)
+          it->second[static_cast<std::size_t>(k * nx + off + i)] =
+              values[static_cast<std::size_t>(k * nxp + i)];
     }
   }
+  if (fields.empty()) {  // no 2D part at this output: the same fields, all 1D columns
+    for (const char* name : {"u", "w", "p", "p_Pa", "nu_eff", "div_u", "flag"})
+      fields.emplace_back(name, std::vector<double>(static_cast<std::size_t>(nx * nz),
+                                                    std::string(name) == "flag" ? -1.0 : 0.0));
+  }
+  auto& m2 = w.add_mesh("ndam", std::move(x2), std::move(z2));
+  m2.cell_fields = std::move(fields);
 }
 
 void CoupledModel::save(io::Checkpoint& c) const {
