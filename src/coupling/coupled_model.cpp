@@ -80,6 +80,10 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
                "[m/s] Dynamic layout: material moving slower than this (|u_mean|) is at rest: a "
                "deposit, which stays 2D (eps = |w|/|u| is 0/0 there and 1/Fr^2 infinite)",
                0.0, 1e6);
+    add_bool(*pl, "Shock indicator", d.shock_indicator,
+             "Dynamic layout: a shock on the 1D side (u_mean drops across a column by more "
+             "than the wave speed sqrt(beta h), to less than half its upstream value) counts as "
+             "2D whatever its eps (false: eps and rest alone decide)");
     add_enum(*pl, "Interface pressure", d.interface_pressure,
              "how the pressure of eq. (26), p = g cos(zeta)(h - z)(1 + K_act)/2, enters the first "
              "2D column behind a 1D-to-2D interface: Rheology: the column stays in the "
@@ -119,6 +123,7 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   d.hold_time = pl.get<double>("Hold time");
   d.check_interval = pl.get<double>("Check interval");
   d.rest_speed = pl.get<double>("Rest speed");
+  d.shock_indicator = pl.get<bool>("Shock indicator");
   if (d.layout == "Dynamic" && !(d.eps_lower < d.eps_threshold))
     params::fail(pl, "Lower threshold", params::str(d.eps_lower),
                  "must be below 'Shallowness threshold' = " + params::str(d.eps_threshold) +

@@ -116,7 +116,8 @@ std::vector<Piece> DomainManager::target(const CoupledModel& model) {
   for (int s = 1; s + 1 < nslots_; ++s) {
     SlotState& q = slots_[static_cast<std::size_t>(s)];
     // a front (a dry neighbour) is not a shock
-    if (q.two_d || !wet[static_cast<std::size_t>(s)] || !wet[static_cast<std::size_t>(s - 1)] ||
+    if (!d_.shock_indicator || q.two_d || !wet[static_cast<std::size_t>(s)] ||
+        !wet[static_cast<std::size_t>(s - 1)] ||
         !wet[static_cast<std::size_t>(s + 1)])
       continue;
     const double du = slots_[static_cast<std::size_t>(s - 1)].u_mean -
@@ -154,7 +155,8 @@ std::vector<Piece> DomainManager::target(const CoupledModel& model) {
   for (int s = 0; s < nslots_; ++s)
     if (near[static_cast<std::size_t>(s)]) want[static_cast<std::size_t>(s)] = 1;
   // A 2D subdomain gives up calm columns from its ends only (its interfaces move; it does not
-  // split where a calm column lies inside it), and never below 'Minimum length'.
+  // split where a calm column lies inside it), and is never cut below 'Minimum length'; one
+  // that is calm all over becomes 1D as a whole.
   const int min_slots = static_cast<int>(std::ceil(d_.min_length / slot_ - 1e-9));
   auto releasable = [&](int s) {
     const auto q = static_cast<std::size_t>(s);
@@ -162,6 +164,12 @@ std::vector<Piece> DomainManager::target(const CoupledModel& model) {
   };
   for (const Run& r : runs(want)) {
     if (!r.two_d) continue;
+    bool all = true;  // a subdomain calm all over goes as a whole
+    for (int q = r.s0; q < r.s1 && all; ++q) all = releasable(q);
+    if (all) {
+      for (int q = r.s0; q < r.s1; ++q) want[static_cast<std::size_t>(q)] = 0;
+      continue;
+    }
     int lo = r.s0, hi = r.s1;
     while (hi - lo > min_slots && releasable(hi - 1)) want[static_cast<std::size_t>(--hi)] = 0;
     while (hi - lo > min_slots && releasable(lo)) want[static_cast<std::size_t>(lo++)] = 0;

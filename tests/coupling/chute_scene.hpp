@@ -30,6 +30,7 @@ struct Chute {
   double end_time = 0.5;
   double slope = 50.0;
   double cell = 0.01;
+  double cfl = 0.5;  // N-DAM CFL
 
   std::string xml() const {
     const int nx = static_cast<int>(std::lround(length / cell));
@@ -71,6 +72,7 @@ struct Chute {
     <Parameter name="Cells z" type="int" value="15"/>
     <Parameter name="Height" type="double" value="0.15"/>
     <Parameter name="Momentum" type="string" value="Implicit"/>
+    <Parameter name="CFL" type="double" value=")x" + std::to_string(cfl) + R"x("/>
     <Parameter name="Free surface" type="bool" value="true"/>
     <Parameter name="Friction regularisation" type="double" value="100"/>
     <ParameterList name="Boundaries">

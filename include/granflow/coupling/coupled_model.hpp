@@ -39,6 +39,7 @@ struct Decomposition {
   double hold_time = 0.05;          ///< ... for this long [s] (hysteresis)
   double check_interval = 0.005;    ///< time between two evaluations of the layout [s]
   double rest_speed = 0.05;         ///< |u_mean| below this is material at rest: 2D [m/s]
+  bool shock_indicator = true;      ///< a shock on the 1D side counts as 2D
   /// 1D-to-2D interfaces: how the pressure of eq. (26) enters the 2D inflow column
   /// ("Rheology", "Dirichlet" or "None"; see ndam::InflowPressure).
   std::string interface_pressure = "Rheology";

@@ -20,7 +20,8 @@
 // The target layout: 2D wherever eps >= 'Shallowness threshold', rest or a shock, widened by
 // 'Margin' on both sides (so the shock moving up from a wall stays inside 2D until the next
 // check: Margin must exceed the shock speed times the check interval); a 2D column becomes 1D
-// only once eps < 'Lower threshold' there has held for 'Hold time' (hysteresis); 1D pieces
+// only once eps < 'Lower threshold' there has held for 'Hold time' (hysteresis), from the ends
+// of its subdomain (a subdomain calm all over goes as a whole); 1D pieces
 // shorter than 'Minimum length' between or at the end of 2D ones become 2D, and 2D subdomains are
 // never shorter than it. Growing, shrinking, creating and merging subdomains are all the same
 // operation: the parts whose slots change model are rebuilt, with their neighbours where they
