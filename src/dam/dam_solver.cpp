@@ -35,7 +35,7 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
     const DamConfig d;
     add_int(*pl, "Cells", d.cells, "N: number of cells of the primary grid on the channel", 4,
             100000000);
-    add_enum(*pl, "Scheme", "Minmod",
+    add_enum(*pl, "Scheme", to_string(d.scheme),
              "NOC slope reconstruction: Minmod (TVD, for shocks, fronts and deposits) or "
              "Beam-Warming (the paper's limiter-free variant for smooth supercritical flow; "
              "oscillates at shocks)",
@@ -44,7 +44,7 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
                "Courant number dt max(|u| + sqrt(beta h)) / dx; the staggered central scheme is "
                "stable up to 0.5",
                1e-3, 0.5);
-    add_enum(*pl, "Earth pressure", "Savage-Hutter",
+    add_enum(*pl, "Earth pressure", to_string(d.earth_pressure),
              "K: Savage-Hutter (active where u_x > 0, passive where u_x < 0, smoothed switch), "
              "Active, Passive (K fixed at one value), or Isotropic (K = 1, shallow water)",
              {"Savage-Hutter", "Active", "Passive", "Isotropic"});
