@@ -21,11 +21,15 @@ namespace granflow::ndam {
 
 enum class RheologyModel { Newtonian, Bingham, DruckerPrager };
 
+/// The default is the paper's: Drucker-Prager for dry grains (no cohesion) of the default
+/// Material; getValidParameters() takes its defaults from a default-constructed one. A Newtonian
+/// or Bingham rheology says so (model, and tau_p = 0).
 struct Rheology {
-  RheologyModel model = RheologyModel::Newtonian;
+  RheologyModel model = RheologyModel::DruckerPrager;
   double nu = 0.003;    ///< [m^2/s] constant kinematic viscosity
   double tau_c = 0.0;   ///< [m^2/s^2] yield stress (Bingham) or cohesion (Drucker-Prager)
-  double tau_p = 0.0;   ///< [-] pressure coefficient of the yield stress (sin phi)
+  /// [-] pressure coefficient of the yield stress: sin(phi) (Drucker-Prager), 0 otherwise
+  double tau_p = std::sin(core::deg2rad(core::Material{}.internal_friction_deg));
   double m_y = 100.0;   ///< [s] regularisation exponent
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
