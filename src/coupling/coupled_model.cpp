@@ -20,34 +20,35 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
   static Teuchos::RCP<const Teuchos::ParameterList> valid = [] {
     using namespace params;
     auto pl = Teuchos::rcp(new Teuchos::ParameterList("Decomposition"));
-    add_enum(*pl, "Layout", "Static",
+    const Decomposition d;
+    add_enum(*pl, "Layout", d.layout,
              "Static: the subdomains of 'Models' split at 'Interfaces'; A priori: a DAM run of "
              "the whole scene first computes eps = 1/Fr^2 and the model is 2D wherever "
              "eps >= 'Shallowness threshold' (plus 'Margin'), 1D elsewhere (paper section 4.1)",
              {"Static", "A priori"});
     auto kinds = Teuchos::rcp(new Teuchos::StringValidator(Teuchos::tuple<std::string>("1D", "2D")));
-    pl->set("Models", Teuchos::Array<std::string>(Teuchos::tuple<std::string>("2D", "1D", "2D")),
+    pl->set("Models", Teuchos::Array<std::string>(d.models.begin(), d.models.end()),
             "model of each subdomain from upstream to downstream: 1D (DAM) or 2D (N-DAM); one "
             "more entry than 'Interfaces' (Static layout)",
             Teuchos::rcp(new Teuchos::ArrayStringValidator(kinds)));
     auto pos = Teuchos::rcp(new Teuchos::EnhancedNumberValidator<double>(0.0, 1e6));
-    pl->set("Interfaces", Teuchos::Array<double>(Teuchos::tuple<double>(0.2, 0.7)),
+    pl->set("Interfaces", Teuchos::Array<double>(d.interfaces.begin(), d.interfaces.end()),
             "[m] interface positions, non-decreasing in [0, L] (Static layout); the paper's "
             "Setup I/II layout is {0.2, 0.7}. A subdomain of zero length (equal neighbouring "
             "positions, or a position at 0 or L) is left out and same-model neighbours that then "
             "touch become one subdomain: {2D, 1D, 2D} with {a, a} is the full 2D model",
             Teuchos::rcp(new Teuchos::ArrayNumberValidator<double>(pos)));
-    add_double(*pl, "Shallowness threshold", 0.1,
+    add_double(*pl, "Shallowness threshold", d.eps_threshold,
                "A priori layout: 2D wherever eps = 1/Fr^2 reaches this at any output time of the "
                "DAM run (the paper's minimum requirement at an interface is eps < 0.1)",
                1e-6, 1e6);
-    add_double(*pl, "Margin", 0.05,
+    add_double(*pl, "Margin", d.margin,
                "[m] A priori layout: each 2D region is widened by this on both sides (the paper: "
                "'somewhat greater than suggested by the one-dimensional simulation')",
                0.0, 1e6);
-    add_double(*pl, "Minimum length", 0.05,
+    add_double(*pl, "Minimum length", d.min_length,
                "[m] A priori layout: shorter 1D gaps and end pieces become 2D", 0.0, 1e6);
-    add_enum(*pl, "Interface pressure", "Rheology",
+    add_enum(*pl, "Interface pressure", d.interface_pressure,
              "how the pressure of eq. (26), p = g cos(zeta)(h - z)(1 + K_act)/2, enters the first "
              "2D column behind a 1D-to-2D interface: Rheology: the column stays in the "
              "projection (div u = 0) and eq. (26) is the pressure of its yield stress; Dirichlet: "
@@ -194,6 +195,8 @@ void CoupledModel::replace_parts(std::size_t first, std::size_t count,
 
 Decomposition CoupledModel::layout() const {
   Decomposition d;
+  d.models.clear();  // the defaults are the paper's layout
+  d.interfaces.clear();
   for (std::size_t i = 0; i < parts_.size(); ++i) {
     d.models.push_back(parts_[i].kind);
     if (i > 0) d.interfaces.push_back(parts_[i].x0);
