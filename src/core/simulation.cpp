@@ -30,8 +30,8 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidTimeParameters() 
     add_double(*pl, "Min time step", d.min_dt,
                "[s] a stable dt below this stops the run as diverged (with a diagnosis)", 0.0,
                1.0);
-    add_int(*pl, "Max steps", static_cast<int>(d.max_steps), "stop (exit code 5) after this many steps", 1,
-            2000000000);
+    add_int(*pl, "Max steps", static_cast<int>(d.max_steps),
+            "stop (exit code 5) after this many steps", 1, 2000000000);
     return pl;
   }();
   return valid;

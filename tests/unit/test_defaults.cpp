@@ -41,7 +41,8 @@ void expect_same_series(const core::InflowSeries& a, const core::InflowSeries& b
 
 TEST(Defaults, MaterialIsItsStruct) {
   const core::Material d;
-  const auto r = core::Material::from_parameters(defaults_of(*core::Material::getValidParameters()));
+  const auto r =
+      core::Material::from_parameters(defaults_of(*core::Material::getValidParameters()));
   EXPECT_EQ(r.gravity, d.gravity);
   EXPECT_EQ(r.density, d.density);
   EXPECT_EQ(r.internal_friction_deg, d.internal_friction_deg);
@@ -96,7 +97,8 @@ TEST(Defaults, RunControlIsItsStruct) {
 
 TEST(Defaults, DamConfigIsItsStruct) {
   const dam::DamConfig d;
-  const auto r = dam::DamConfig::from_parameters(defaults_of(*dam::DamConfig::getValidParameters()));
+  const auto r =
+      dam::DamConfig::from_parameters(defaults_of(*dam::DamConfig::getValidParameters()));
   EXPECT_EQ(r.cells, d.cells);
   EXPECT_EQ(r.scheme, d.scheme);
   EXPECT_EQ(r.cfl, d.cfl);
