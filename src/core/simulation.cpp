@@ -30,8 +30,8 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidTimeParameters() 
     add_double(*pl, "Min time step", d.min_dt,
                "[s] a stable dt below this stops the run as diverged (with a diagnosis)", 0.0,
                1.0);
-    add_int(*pl, "Max steps", 100000000, "stop (exit code 5) after this many steps", 1,
-            2000000000);
+    add_int(*pl, "Max steps", static_cast<int>(d.max_steps),
+            "stop (exit code 5) after this many steps", 1, 2000000000);
     return pl;
   }();
   return valid;
@@ -52,7 +52,7 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidOutputParameters(
     add_bool(*pl, "Fields", d.fields, "write HDF5 field snapshots with an XDMF index");
     add_bool(*pl, "Checkpoint", d.checkpoint, "write checkpoint.h5 at every output time");
     add_bool(*pl, "Progress", d.progress, "show a live progress line on stderr");
-    add_string(*pl, "Restart from", "",
+    add_string(*pl, "Restart from", d.restart_from,
                "checkpoint.h5 of an earlier run of the same scene to resume from (empty: start "
                "from the initial condition); relative to the current working directory, like "
                "'Directory'");

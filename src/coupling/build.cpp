@@ -35,8 +35,8 @@ Decomposition a_priori_layout(Decomposition d, const core::Material& m, const co
       next += interval;
     }
   }
-  const auto lay = analysis::propose_layout(run, c.length, d.eps_threshold, d.margin,
-                                            d.min_length, 10 * cfg.dry_depth);
+  const auto lay = analysis::propose_layout(run, c.length, d.eps_threshold, d.margin, d.min_length,
+                                            analysis::layout_wet_depth(cfg.dry_depth));
   d.models.clear();
   d.interfaces.clear();
   for (std::size_t i = 0; i < lay.size(); ++i) {

@@ -33,12 +33,12 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
              "from 'Initial layout' (docs/numerics.md, 'Domain manager')",
              {"Static", "A priori", "Dynamic"});
     auto kinds = Teuchos::rcp(new Teuchos::StringValidator(Teuchos::tuple<std::string>("1D", "2D")));
-    pl->set("Models", Teuchos::Array<std::string>(Teuchos::tuple<std::string>("2D", "1D", "2D")),
+    pl->set("Models", Teuchos::Array<std::string>(d.models.begin(), d.models.end()),
             "model of each subdomain from upstream to downstream: 1D (DAM) or 2D (N-DAM); one "
             "more entry than 'Interfaces' (Static layout, and a Dynamic one that starts from it)",
             Teuchos::rcp(new Teuchos::ArrayStringValidator(kinds)));
     auto pos = Teuchos::rcp(new Teuchos::EnhancedNumberValidator<double>(0.0, 1e6));
-    pl->set("Interfaces", Teuchos::Array<double>(Teuchos::tuple<double>(0.2, 0.7)),
+    pl->set("Interfaces", Teuchos::Array<double>(d.interfaces.begin(), d.interfaces.end()),
             "[m] interface positions, non-decreasing in [0, L] (Static layout); the paper's "
             "Setup I/II layout is {0.2, 0.7}. A subdomain of zero length (equal neighbouring "
             "positions, or a position at 0 or L) is left out and same-model neighbours that then "
@@ -241,6 +241,8 @@ void CoupledModel::replace_parts(std::size_t first, std::size_t count,
 
 Decomposition CoupledModel::layout() const {
   Decomposition d;
+  d.models.clear();  // the defaults are the paper's layout
+  d.interfaces.clear();
   for (std::size_t i = 0; i < parts_.size(); ++i) {
     d.models.push_back(parts_[i].kind);
     if (i > 0) d.interfaces.push_back(parts_[i].x0);

@@ -229,9 +229,8 @@ void NdamSolver::fill_scalar_ghosts(Field& s) const {
 void NdamSolver::update_friction(const Field& p_yield) {
   const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
-  auto beta = [&](double ub) {
-    const double x = cfg_.m_c * std::abs(ub);
-    return phys_.tan_delta * (x < 1e-8 ? cfg_.m_c * (1.0 - 0.5 * x) : -std::expm1(-x) / std::abs(ub));
+  auto beta = [&](double ub) {  // c_F / |u_b| (12)
+    return phys_.tan_delta * regularised_inverse(cfg_.m_c, std::abs(ub));
   };
   bed_a_.assign(static_cast<std::size_t>(nxl + 2 * G), 1.0);
   if (cfg_.walls[2].kind == WallKind::Coulomb)

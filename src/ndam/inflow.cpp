@@ -20,6 +20,23 @@
 
 namespace granflow::ndam {
 
+namespace {
+// Exact transfer through a 1D-to-2D interface: the velocity that lets in the DAM's outgoing mass
+// is capped at kInflowSpeedup |u_mean| + kInflowSpeedupFloor of the provider. stable_dt() set
+// this step's CFL condition with the provider's u_mean, so the cap keeps the injection within
+// 1.5 times what the step was chosen for; the floor (0.1 m/s, a few per cent of the chute's
+// 0.4-3 m/s) lets mass in while the provider's u_mean is still ~0 (a front arriving).
+constexpr double kInflowSpeedup = 1.5;
+constexpr double kInflowSpeedupFloor = 0.1;  // [m/s]
+// Below this inflow depth the step takes nothing: a film of 0.1 mm (1/50 of the 5 mm cells of
+// the paper's grids) would need u = mass / (dt h) far above the cap to carry the mass. What is
+// not taken is carried to the next steps (pending mass), so no mass is lost.
+constexpr double kInflowMinDepth = 1e-4;  // [m]
+// A first interior column whose mean velocity is below this has no profile shape to copy
+// (eq. 25): it is at rest or empty, and the opening takes the uniform profile.
+constexpr double kShapeMinMean = 1e-12;  // [m/s]
+}  // namespace
+
 // The gate state of a step (lagged at t^n): {h_in, u_in} from the provider; with an exact mass
 // (a 1D-to-2D interface) the velocity that lets in what the upstream side let out; then the
 // boundary faces with it.
@@ -29,13 +46,12 @@ void NdamSolver::gate_state(double dt) {
   if (inflow_mass_) {
     if (const auto m = inflow_mass_(t_, dt)) {
       // Exact transfer: the step lets in what the upstream side let out (plus what earlier
-      // steps could not take). The velocity is capped at 1.5 |u_mean| + 0.1 m/s of the
-      // provider (the CFL condition of this step was set with that u_mean), and a depth below
-      // 0.1 mm takes nothing: the rest waits for the next steps.
+      // steps could not take), at a velocity capped by kInflowSpeedup and from a depth of at
+      // least kInflowMinDepth; the rest waits for the next steps.
       const double target = *m + inflow_owed_, h = inflow_now_[0];
-      const double ucap = 1.5 * std::abs(inflow_now_[1]) + 0.1;
+      const double ucap = kInflowSpeedup * std::abs(inflow_now_[1]) + kInflowSpeedupFloor;
       double u = 0.0;
-      if (h > 1e-4 && target > 0.0) u = std::min(target / (dt * h), ucap);
+      if (h > kInflowMinDepth && target > 0.0) u = std::min(target / (dt * h), ucap);
       inflow_now_[1] = u;
       inflow_owed_new_ = target - u * dt * h;
     }
@@ -65,7 +81,7 @@ double NdamSolver::inflow_face(int k) const {
     q += o * dz * u_(0, kk);
   }
   const double mean = q / h;
-  if (!(std::abs(mean) > 1e-12)) return um;  // no shape yet (empty column): uniform
+  if (!(std::abs(mean) > kShapeMinMean)) return um;  // no shape yet: uniform
   return um * u_(0, k) / mean;
 }
 

@@ -27,7 +27,7 @@ core::Profile NdamSolver::profile() const {
     for (int gi = 0; gi < cfg_.grid.nx; ++gi) {
       const auto q = static_cast<std::size_t>(gi);
       const double um = col_u_[q], wm = col_w_[q];
-      const double eps = um != 0.0 ? std::min(1e6, std::abs(wm) / std::abs(um)) : 0.0;
+      const double eps = um != 0.0 ? std::min(core::kEpsCap, std::abs(wm) / std::abs(um)) : 0.0;
       p.append(cfg_.x0 + (gi + 0.5) * cfg_.grid.dx(), col_h_[q], um, eps, "2D");
     }
     return p;
@@ -55,7 +55,7 @@ core::Profile NdamSolver::profile() const {
   for (int gi = 0; gi < cfg_.grid.nx; ++gi) {
     const double um = all[static_cast<std::size_t>(3 * gi)];
     const double wm = all[static_cast<std::size_t>(3 * gi + 1)];
-    const double eps = um != 0.0 ? std::min(1e6, std::abs(wm) / std::abs(um)) : 0.0;
+    const double eps = um != 0.0 ? std::min(core::kEpsCap, std::abs(wm) / std::abs(um)) : 0.0;
     p.append((gi + 0.5) * cfg_.grid.dx(), all[static_cast<std::size_t>(3 * gi + 2)], um, eps,
              "2D");
   }

@@ -16,6 +16,18 @@ namespace granflow::ndam {
 using detail::Clock;
 using detail::seconds_since;
 
+namespace {
+// Implicit Newtonian momentum: the momentum matrix depends on dt only, so the dt it was assembled
+// with is kept while it stays within [kDtHoldFraction, 1] of the stable dt, and the matrix and
+// its preconditioner are reused. A held dt is at least 0.8 of the stable one: at most 1.25
+// times the steps, against a reassembly and preconditioner setup in every step.
+constexpr double kDtHoldFraction = 0.8;
+// A linear solve that stopped short of its tolerance is counted in summary.json; one whose
+// relative residual is above this (six orders of magnitude of reduction, e.g. 'Max iterations'
+// too small for a stiff system) stops the run instead of producing a wrong state.
+constexpr double kLinearSolveStopResidual = 1e-6;
+}  // namespace
+
 NdamSolver::NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo,
                        const NdamPhysics& phys)
     : NdamSolver(comm, cfg, rheo, phys, nullptr, NdamStatistics{}) {}
@@ -173,10 +185,9 @@ double NdamSolver::stable_dt() const {
     if (rate > 0.0) dt = std::min(dt, 1.0 / rate);
   }
   dt *= cfg_.cfl;
-  // Implicit and Newtonian: the momentum matrix depends on dt only, so a dt that stays within
-  // [0.8, 1] of the limit is held; the matrix and its preconditioner are then reused.
+  // Implicit and Newtonian: the dt of the assembled momentum matrix is held (kDtHoldFraction).
   if (cfg_.momentum == Momentum::Implicit && rheo_.newtonian() && momentum_dt_ > 0.0 &&
-      momentum_dt_ <= dt && momentum_dt_ >= 0.8 * dt)
+      momentum_dt_ <= dt && momentum_dt_ >= kDtHoldFraction * dt)
     dt = momentum_dt_;
   return dt;
 }
@@ -248,13 +259,13 @@ core::Health NdamSolver::check() const {
       const double vals[3] = {u_new_(i, k), w_new_(i, k), p_new_(i, k)};
       const char* names[3] = {"u", "w", "p"};
       for (int q = 0; q < 3; ++q)
-        if (!std::isfinite(vals[q]) || (q < 2 && std::abs(vals[q]) > 1e4)) {
+        if (!std::isfinite(vals[q]) || (q < 2 && std::abs(vals[q]) > core::kMaxVelocity)) {
           bad = 1;
           h.ok = false;
           h.quantity = names[q];
           h.value = vals[q];
           h.x = (mac_.slab.i0 + i + 0.5) * dx;
-          h.reason = std::isfinite(vals[q]) ? "velocity above 1e4 m/s" : "not finite";
+          h.reason = std::isfinite(vals[q]) ? core::kMaxVelocityReason : "not finite";
         }
     }
   int any = 0;
@@ -262,7 +273,7 @@ core::Health NdamSolver::check() const {
   if (any && h.ok) {
     h.ok = false;
     h.quantity = "u";
-    h.reason = "not finite or above 1e4 m/s on another rank";
+    h.reason = std::string("not finite or ") + core::kMaxVelocityReason + " on another rank";
   }
   // The nonlinear pressure system: a Newton solve that did not converge stops the run (the
   // NOX stats are reduced over all ranks, so the decision is collective).
@@ -281,14 +292,13 @@ core::Health NdamSolver::check() const {
                " m, z = " + detail::gstr(newton_fail_cell_[1]) + " m; see N-DAM->Pressure Newton: Absolute tolerance, Relative "
                "tolerance, Max Newton iterations, or 'Pressure coupling' = Lagged)";
   }
-  // A linear solve that stopped short of its tolerance is counted in summary.json; one that is
-  // far from it (relative residual above 1e-6, e.g. 'Max iterations' too small for a stiff
-  // system) stops the run with a diagnosis instead of producing a wrong state. The stats are
-  // the same on all ranks (Belos reductions), so the decision is collective.
+  // A linear solve far from its tolerance (kLinearSolveStopResidual) stops the run with a
+  // diagnosis. The stats are the same on all ranks (Belos reductions), so the decision is
+  // collective.
   if (h.ok) {
     for (const auto* st : {&mom_stats_, &p_stats_}) {
       const bool used = st == &p_stats_ || cfg_.momentum == Momentum::Implicit;
-      if (used && !st->converged && !(st->residual <= 1e-6)) {
+      if (used && !st->converged && !(st->residual <= kLinearSolveStopResidual)) {
         h.ok = false;
         h.quantity = st == &p_stats_ ? "pressure solve" : "momentum solve";
         h.value = st->residual;

@@ -10,6 +10,7 @@
 // The interfaces and the conditions they set are interface.hpp; the parts are built by the
 // SubdomainFactory (factory.hpp). Mass through every interface is tracked from both sides and
 // reported in summary.json.
+#include "granflow/analysis/profiles.hpp"
 #include "granflow/core/channel.hpp"
 #include "granflow/core/stepper.hpp"
 #include "granflow/coupling/interface.hpp"
@@ -25,14 +26,18 @@
 
 namespace granflow::coupling {
 
-/// "Decomposition" sublist: the sequence of models along the channel and the interfaces.
+/// "Decomposition" sublist: the sequence of models along the channel and the interfaces. The
+/// defaults are the paper's Setup I/II layout 2D [0, 0.2] / 1D [0.2, 0.7] / 2D [0.7, L] and the
+/// a priori criteria of analysis::LayoutCriteria; getValidParameters() takes them from here.
 struct Decomposition {
-  std::vector<std::string> models;  ///< "1D" or "2D" per subdomain, upstream first
-  std::vector<double> interfaces;   ///< interface positions [m], non-decreasing in [0, L]
-  std::string layout = "Static";    ///< "Static", "A priori" or "Dynamic"
-  double eps_threshold = 0.1;       ///< a priori and dynamic: 2D where eps >= this
-  double margin = 0.05;             ///< widening of each 2D region [m]
-  double min_length = 0.05;         ///< shortest subdomain kept [m]
+  /// "1D" or "2D" per subdomain, upstream first
+  std::vector<std::string> models{"2D", "1D", "2D"};
+  std::vector<double> interfaces{0.2, 0.7};  ///< interface positions [m], non-decreasing in [0, L]
+  std::string layout = "Static";             ///< "Static", "A priori" or "Dynamic"
+  /// a priori and dynamic: 2D where eps >= this
+  double eps_threshold = analysis::LayoutCriteria{}.threshold;
+  double margin = analysis::LayoutCriteria{}.margin;  ///< widening of each 2D region [m]
+  double min_length = analysis::LayoutCriteria{}.min_length;  ///< shortest subdomain kept [m]
   // Dynamic layout (the domain manager, domain_manager.hpp)
   std::string initial_layout = "Static";  ///< "Static" or "A priori": where a dynamic run starts
   double eps_lower = 0.05;          ///< a 2D column may become 1D once eps < this ...

@@ -31,6 +31,17 @@ namespace granflow::dam {
 
 enum class Scheme { Minmod, BeamWarming };
 enum class EarthPressure { SavageHutter, Active, Passive, Isotropic };
+/// The names of the "DAM" list's 'Scheme' and 'Earth pressure' values.
+inline const char* to_string(Scheme s) { return s == Scheme::Minmod ? "Minmod" : "Beam-Warming"; }
+inline const char* to_string(EarthPressure e) {
+  switch (e) {
+    case EarthPressure::SavageHutter: return "Savage-Hutter";
+    case EarthPressure::Active: return "Active";
+    case EarthPressure::Passive: return "Passive";
+    case EarthPressure::Isotropic: return "Isotropic";
+  }
+  return "?";
+}
 
 /// Numerical parameters of the DAM ("DAM" sublist).
 struct DamConfig {

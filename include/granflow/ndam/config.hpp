@@ -38,6 +38,10 @@ enum class InflowShape { Uniform, CopyInterior };
 ///             pressure its yield stress tau_y = tau_c + tau_p p sees (the 1D side's pressure
 ///             at x_IF, where the 2D pressure is still adjusting to the injected state).
 enum class InflowPressure { None, Dirichlet, Rheology };
+/// The names of the "N-DAM" list's values ('Momentum', 'Pressure coupling', a side's kind).
+const char* to_string(Momentum m);
+const char* to_string(PressureCoupling c);
+const char* to_string(WallKind k);
 
 /// Boundary condition of one side of the box. `velocity` is the tangential wall velocity of a
 /// moving lid (u on bottom/top, w on left/right).
@@ -46,19 +50,26 @@ struct Wall {
   double velocity = 0.0;
 };
 
-/// Numerical parameters of the N-DAM ("N-DAM" sublist).
+/// Numerical parameters of the N-DAM ("N-DAM" sublist). getValidParameters() takes its defaults
+/// from a default-constructed one. The members without a parameter of their own (the gate, the
+/// open outflow, x0, the interface options) come from the Channel (from_parameters) or from the
+/// coupled model (SubdomainFactory, Interface).
 struct NdamConfig {
-  Grid grid{64, 32, 1.0, 0.15};
+  Grid grid{64, 32, 1.0, 0.15};  ///< lx: the Channel's length (from_parameters)
   Momentum momentum = Momentum::Implicit;
   double cfl = 0.5;
   double gamma = 0.5;  ///< donor-cell weight of the convective terms (0: central, 1: upwind)
-  std::array<Wall, 4> walls{};  ///< by Side
+  /// By Side: no-slip walls, free-slip top (the lid of a box that holds a free surface).
+  std::array<Wall, 4> walls{Wall{}, Wall{}, Wall{}, Wall{WallKind::FreeSlip, 0.0}};
   /// Obstacle rectangles {x0, x1, z0, z1} [m]: cells whose centre lies inside are obstacles
   /// (rigid, no-slip surfaces).
   std::vector<std::array<double, 4>> obstacles;
-  Teuchos::ParameterList momentum_solver, pressure_solver;
+  /// Belos lists (solvers::LinearSystem) of the implicit viscous step and of the projection.
+  Teuchos::ParameterList momentum_solver = default_momentum_solver();
+  Teuchos::ParameterList pressure_solver = default_pressure_solver();
   PressureCoupling pressure_coupling = PressureCoupling::Lagged;
-  Teuchos::ParameterList pressure_newton;  ///< "Pressure Newton": NonlinearSystem's list
+  /// "Pressure Newton": NonlinearSystem's list with the defaults of the pressure system.
+  Teuchos::ParameterList pressure_newton = default_pressure_newton();
   /// 'Pressure Newton failure' = Continue: an unconverged step keeps NOX's best iterate
   /// (counted in summary.json) instead of stopping the run.
   bool newton_failure_continue = false;
@@ -67,8 +78,9 @@ struct NdamConfig {
   /// Material tracked by markers: cells with markers are Fluid/Surface, the others Empty (p = 0).
   bool free_surface = false;
   int markers_per_cell = 4;  ///< n_x = n_z of the marker sub-lattice
-  /// Initial layer z < initial_depth on initial_x0 <= x < initial_x1 (0: no initial material).
-  double initial_depth = 0.0, initial_x0 = 0.0, initial_x1 = 1e300;
+  /// Initial layer z < initial_depth on initial_x0 <= x < initial_x1 (0: no initial material);
+  /// the default end 1e30 m lies beyond any channel: the layer reaches the end of the box.
+  double initial_depth = 0.0, initial_x0 = 0.0, initial_x1 = 1e30;
   /// Silo gate at x = x0 (left side): {h_in, u_in} at time t; empty function: no inflow.
   std::function<std::array<double, 2>(double t)> inflow;
   InflowShape inflow_shape = InflowShape::Uniform;
@@ -85,6 +97,11 @@ struct NdamConfig {
 
   bool periodic_x() const { return walls[0].kind == WallKind::Periodic; }
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
+  /// The validated defaults of the 'Momentum solver', 'Pressure solver' and 'Pressure Newton'
+  /// sublists (the solvers' own lists with the defaults that suit the N-DAM's systems).
+  static Teuchos::ParameterList default_momentum_solver();
+  static Teuchos::ParameterList default_pressure_solver();
+  static Teuchos::ParameterList default_pressure_newton();
   /// Reads a validated "N-DAM" list. `user` is the list as written (or null); the box length
   /// is the Channel's; `ranks` is checked against the columns (each rank needs >= 2 columns).
   static NdamConfig from_parameters(const Teuchos::ParameterList& validated,
