@@ -479,6 +479,43 @@ std::vector<Marker> MarkerSet::gather() const {
   return all;
 }
 
+// ---------------------------------------------------------------------------------------------
+// holes
+
+std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flags, int nx, int nz,
+                                               bool open_left, bool open_right) {
+  if (static_cast<int>(flags.size()) != nx * nz)
+    throw std::invalid_argument("enclosed_voids: flags must hold nx * nz cells");
+  const auto at = [nz](int gi, int k) { return static_cast<std::size_t>(gi * nz + k); };
+  // Flood fill of the Empty cells connected to the atmosphere (top row) or an open side.
+  std::vector<char> open(flags.size(), 0);
+  std::vector<std::array<int, 2>> stack;
+  const auto seed = [&](int gi, int k) {
+    if (flags[at(gi, k)] == CellFlag::Empty && !open[at(gi, k)]) {
+      open[at(gi, k)] = 1;
+      stack.push_back({gi, k});
+    }
+  };
+  for (int gi = 0; gi < nx; ++gi) seed(gi, nz - 1);
+  for (int k = 0; k < nz; ++k) {
+    if (open_left) seed(0, k);
+    if (open_right) seed(nx - 1, k);
+  }
+  while (!stack.empty()) {
+    const auto [gi, k] = stack.back();
+    stack.pop_back();
+    if (gi > 0) seed(gi - 1, k);
+    if (gi + 1 < nx) seed(gi + 1, k);
+    if (k > 0) seed(gi, k - 1);
+    if (k + 1 < nz) seed(gi, k + 1);
+  }
+  std::vector<std::array<int, 2>> holes;
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = 0; k < nz; ++k)
+      if (flags[at(gi, k)] == CellFlag::Empty && !open[at(gi, k)]) holes.push_back({gi, k});
+  return holes;
+}
+
 MarkerState MarkerSet::save() const {
   return MarkerState{m_, acc_, seed_base_, inject_next_, injected_, removed_, migrated_};
 }

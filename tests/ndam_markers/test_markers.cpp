@@ -626,6 +626,37 @@ TEST(MarkersInflow, DeceleratedLayerLeavesNoEmptyCellInside) {
   EXPECT_NEAR(sum / inside, 16.0, 1.6);
 }
 
+// The hole check on hand-made flag fields (rows drawn top first: '.' Empty, 'F' Fluid, 'S'
+// Surface): the case (the bed cell at the wall Empty under Surface and Fluid cells), a
+// void inside a deposit, the air under a free jet's overhang (open to the atmosphere around the
+// jet: not a hole), and an Empty pocket that only an open outflow side connects to the outside.
+TEST(MarkersFlags, EnclosedVoidsAreHolesOverhangsAreNot) {
+  const auto flags = [](const std::vector<std::string>& rows) {
+    const int nz = static_cast<int>(rows.size()), nx = static_cast<int>(rows[0].size());
+    std::vector<CellFlag> f(static_cast<std::size_t>(nx * nz));
+    for (int k = 0; k < nz; ++k)
+      for (int gi = 0; gi < nx; ++gi) {
+        const char c = rows[static_cast<std::size_t>(nz - 1 - k)][static_cast<std::size_t>(gi)];
+        f[static_cast<std::size_t>(gi * nz + k)] =
+            c == '.' ? CellFlag::Empty : c == 'S' ? CellFlag::Surface : CellFlag::Fluid;
+      }
+    return f;
+  };
+  // wall at the right end: the bottom cell at the wall is a hole, as is the deposit's inner void
+  const std::vector<std::string> deposit{"......", "....SS", "..SFFF", ".SF.FF", "SFFFF."};
+  const auto h = enclosed_voids(flags(deposit), 6, 5);
+  ASSERT_EQ(h.size(), 2u);
+  EXPECT_EQ(h[0], (std::array<int, 2>{3, 1}));
+  EXPECT_EQ(h[1], (std::array<int, 2>{5, 0}));
+  // a jet leaving a step over the empty bed: the air under it reaches the top around its tip
+  const std::vector<std::string> jet{".......", "SSSS...", "....S..", ".......", "FF....."};
+  EXPECT_TRUE(enclosed_voids(flags(jet), 7, 5).empty());
+  // a pocket against the right side: a hole at a wall, open at an outflow
+  const std::vector<std::string> pocket{"......", "SSSSSS", "FFFF..", "FFFFFF"};
+  EXPECT_EQ(enclosed_voids(flags(pocket), 6, 4).size(), 2u);
+  EXPECT_TRUE(enclosed_voids(flags(pocket), 6, 4, false, true).empty());
+}
+
 // ---------------------------------------------------------------------------------------------
 // MPI: np = 2 equals np = 1
 

@@ -226,4 +226,14 @@ class MarkerSet {
   long long injected_ = 0, removed_ = 0, migrated_ = 0;  // this rank's counters
 };
 
+/// Holes in the material (issue 11): the Empty cells of `flags` (the whole box, gi * nz + k)
+/// that enclosed voids are made of, i.e. whose 4-connected region of Empty cells reaches neither
+/// the top row of the box (the atmosphere above the flow) nor an open side (`open_left`,
+/// `open_right`: an outflow). Such a cell has material or a wall on every path out; in an
+/// incompressible free-surface flow it is a marker-sampling artefact, and its p = 0 Dirichlet
+/// value cuts the pressure of the material around it. The air under a free jet's overhang
+/// reaches the atmosphere around the jet and is not a hole. Returns {gi, k} of each hole cell.
+std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flags, int nx, int nz,
+                                               bool open_left = false, bool open_right = false);
+
 }  // namespace granflow::ndam
