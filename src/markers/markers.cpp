@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -19,6 +20,16 @@ constexpr double kRowRoundOff = 1e-9;
 
 // Largest double below v (keeps a reflected or clamped coordinate strictly inside [0, L)).
 double below(double v) { return std::nextafter(v, -1.0e300); }
+
+// A number in [0, 1) from the integer n: the splitmix64 finaliser (Steele, Lea & Flood 2014),
+// whose output bits are equidistributed for consecutive n; deterministic, no generator state.
+double unit_hash(long long n) {
+  std::uint64_t z = static_cast<std::uint64_t>(n) + 0x9E3779B97F4A7C15ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return static_cast<double>(z >> 11) * 0x1.0p-53;  // the top 53 bits
+}
 }  // namespace
 
 MarkerSet::MarkerSet(MPI_Comm comm, const Grid& grid, const Slab& slab, const MarkerConfig& cfg)
@@ -135,9 +146,20 @@ void MarkerSet::inject_rows(double dt, double h_in,
     const long long n = static_cast<long long>(std::floor(A));
     for (long long j = 1; j <= n; ++j) {
       // The j-th unit crossed x = 0 when the accumulator passed j, a fraction (A - j) / dn of
-      // the step ago: it has travelled that fraction of uf dt since.
+      // the step ago: it has travelled that fraction of uf dt since. Along z it sits at a
+      // uniformly distributed height of its strip, not at the strip centre: markers at the
+      // centres of every strip are material lines along the flow, one per strip, which a flow
+      // that slows down by a factor F later spreads F times apart normal to it (the deposit in
+      // front of a wall, a shock). Once F s_z > dz the cells between two lines hold no marker
+      // and are Empty inside the material: a hole with p = 0 (issue 11: material injected at
+      // 2.6 m/s by a 1D-to-2D interface comes to rest at the wall, F = 10 to 100). Heights
+      // spread over the strip keep every part of the deformed strip sampled. The fraction comes
+      // from a hash of the marker's id: the same on any number of ranks (only column 0 injects)
+      // and across a restart (the id counter is in the checkpoint). x, the per-column counts
+      // and the injected area are those of the strip-centre markers.
+      const long long id = kInjectedIdBase + inject_next_++;
       const double x = std::clamp((A - static_cast<double>(j)) / dn * uf * dt, 0.0, xmax);
-      m_.push_back(Marker{x, zb + 0.5 * s, kInjectedIdBase + inject_next_++});
+      m_.push_back(Marker{x, zb + unit_hash(id) * s, id});
     }
     acc_[static_cast<std::size_t>(r)] = A - static_cast<double>(n);
     injected_ += n;
@@ -453,6 +475,43 @@ std::vector<Marker> MarkerSet::gather() const {
                  comm_);
   std::sort(all.begin(), all.end(), [](const Marker& a, const Marker& b) { return a.id < b.id; });
   return all;
+}
+
+// ---------------------------------------------------------------------------------------------
+// holes
+
+std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flags, int nx, int nz,
+                                               bool open_left, bool open_right) {
+  if (static_cast<int>(flags.size()) != nx * nz)
+    throw std::invalid_argument("enclosed_voids: flags must hold nx * nz cells");
+  const auto at = [nz](int gi, int k) { return static_cast<std::size_t>(gi * nz + k); };
+  // Flood fill of the Empty cells connected to the atmosphere (top row) or an open side.
+  std::vector<char> open(flags.size(), 0);
+  std::vector<std::array<int, 2>> stack;
+  const auto seed = [&](int gi, int k) {
+    if (flags[at(gi, k)] == CellFlag::Empty && !open[at(gi, k)]) {
+      open[at(gi, k)] = 1;
+      stack.push_back({gi, k});
+    }
+  };
+  for (int gi = 0; gi < nx; ++gi) seed(gi, nz - 1);
+  for (int k = 0; k < nz; ++k) {
+    if (open_left) seed(0, k);
+    if (open_right) seed(nx - 1, k);
+  }
+  while (!stack.empty()) {
+    const auto [gi, k] = stack.back();
+    stack.pop_back();
+    if (gi > 0) seed(gi - 1, k);
+    if (gi + 1 < nx) seed(gi + 1, k);
+    if (k > 0) seed(gi, k - 1);
+    if (k + 1 < nz) seed(gi, k + 1);
+  }
+  std::vector<std::array<int, 2>> holes;
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = 0; k < nz; ++k)
+      if (flags[at(gi, k)] == CellFlag::Empty && !open[at(gi, k)]) holes.push_back({gi, k});
+  return holes;
 }
 
 MarkerState MarkerSet::save() const {

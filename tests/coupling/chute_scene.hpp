@@ -30,6 +30,7 @@ struct Chute {
   double end_time = 0.5;
   double slope = 50.0;
   double cell = 0.01;
+  double height = 0.15;  // N-DAM->Height, with 'Cells z' = height / cell
   double cfl = 0.5;  // N-DAM CFL
 
   std::string xml() const {
@@ -69,8 +70,8 @@ struct Chute {
   </ParameterList>
   <ParameterList name="N-DAM">
     <Parameter name="Cells x" type="int" value=")x" + n + R"x("/>
-    <Parameter name="Cells z" type="int" value="15"/>
-    <Parameter name="Height" type="double" value="0.15"/>
+    <Parameter name="Cells z" type="int" value=")x" + std::to_string(std::lround(height / cell)) + R"x("/>
+    <Parameter name="Height" type="double" value=")x" + std::to_string(height) + R"x("/>
     <Parameter name="Momentum" type="string" value="Implicit"/>
     <Parameter name="CFL" type="double" value=")x" + std::to_string(cfl) + R"x("/>
     <Parameter name="Free surface" type="bool" value="true"/>

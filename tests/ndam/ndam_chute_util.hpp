@@ -23,6 +23,7 @@ struct FsCase {
   std::string coupling = "Lagged";
   int newton_max = 0;
   double newton_abs_tol = 0.0;
+  double x0 = 0.0;  // grid origin along the slope (NdamConfig::x0, as a 2D subdomain has)
 };
 
 inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm = MPI_COMM_WORLD) {
@@ -77,7 +78,8 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   }
   const Teuchos::ParameterList ruser = r;
   params::validate_and_set_defaults(r, *ndam::Rheology::getValidParameters(), "test");
-  const auto cfg = ndam::NdamConfig::from_parameters(n, &user, ch, ranks);
+  auto cfg = ndam::NdamConfig::from_parameters(n, &user, ch, ranks);
+  cfg.x0 = c.x0;
   const auto rheo = ndam::Rheology::from_parameters(r, &ruser, m);
   return std::make_unique<ndam::NdamSolver>(comm, cfg, rheo, ndam::NdamPhysics::from(m, ch));
 }

@@ -484,9 +484,9 @@ double dt_of(int step) { return 0.002 * (1.0 + 0.3 * std::sin(0.7 * step)); }
 // injected area equals h_in u_mean t minus the accumulators' fractions, i.e. it lies in
 // (Q t - R A_m, Q t] with R the number of injection rows: within one marker row (R A_m =
 // s_x h_in rounded up to full rows), the brief's tolerance. The marker count obeys the integer
-// ledger count = injected - removed exactly. In the interior the layer's depth is h_in within
-// s_z / 2: full rows hold exactly n_x markers per column; the partial top row (0.7 mm of the
-// 1.25 mm spacing) holds 2 or 3 per column, within s_z / n_x of its share.
+// ledger count = injected - removed exactly. In the interior the layer's mean depth is h_in
+// within s_z / 2, and the depth of each column scatters about it as a random placement of the
+// markers does (see the bound below).
 TEST(MarkersInflow, InjectionMatchesFluxOverManySteps) {
   const Channel ch;
   const Slab s = Slab::split(ch.g.nx, 0, 1);
@@ -517,8 +517,27 @@ TEST(MarkersInflow, InjectionMatchesFluxOverManySteps) {
   EXPECT_GT(mm.removed, 0);  // the outflow was exercised
   // Columns the slowest (bottom) row has passed: 0.5 u_mean t = 0.148 m, i.e. columns < 29.
   const auto h = ms.depth();
-  for (int i = 0; i < 26; ++i)
-    EXPECT_NEAR(h[static_cast<std::size_t>(i)], ch.h_in, 0.5 * ms.spacing_z()) << "column " << i;
+  double mean = 0, rms = 0, worst = 0;
+  for (int i = 0; i < 26; ++i) {
+    const double d = h[static_cast<std::size_t>(i)] - ch.h_in;
+    mean += d / 26;
+    rms += d * d / 26;
+    worst = std::max(worst, std::abs(d));
+  }
+  rms = std::sqrt(rms);
+  std::printf("inflow: depth of columns 0-25 - h_in: mean %.2e m, rms %.2e m, worst %.2e m "
+              "(s_z = %.2e m)\n",
+              mean, rms, worst, ms.spacing_z());
+  // The mean over the columns is the injected area (above) per length: within s_z / 2 of h_in.
+  EXPECT_LE(std::abs(mean), 0.5 * ms.spacing_z());
+  // Column by column the count varies: each marker sits at a random height of its strip, and in
+  // the shear U(z) markers of one strip at different heights drift apart along x (by
+  // u_mean s_z / h_in t = 3 mm after 0.4 s, more than half a column), so the count of a column
+  // is that of points placed at random rather than on a lattice. Independent placement (Poisson)
+  // bounds its standard deviation by sqrt(R n_x) markers, i.e. sqrt(R / n_x) s_z = 3.5 s_z for
+  // the R = 49 rows; measured: rms 1.0 s_z, worst 1.9 s_z (the jittered rows are sub-Poisson).
+  const double rows = std::ceil(ch.h_in / ms.spacing_z());
+  EXPECT_LE(rms, std::sqrt(rows / ms.config().per_cell_x) * ms.spacing_z());
 }
 
 // A restart from save()/load() in the middle of an inflow run reproduces the straight run bit for
@@ -547,6 +566,95 @@ TEST(MarkersInflow, SaveLoadReproducesStraightRun) {
   EXPECT_EQ(a.count, b.count);
   EXPECT_EQ(a.injected, b.injected);
   EXPECT_EQ(a.removed, b.removed);
+}
+
+// Injected material that slows down keeps every cell it covers marked (issue 11). The gate lets
+// in a 5 mm layer at U0 = 2.5 m/s; the frozen, exactly divergence-free strain flow
+// psi = (U0 - a x) z (u = U0 - a x, w = a z, a = 9 1/s) slows it down along x and thickens it
+// along z as the deposit in front of a wall does: on the streamline from height z0 the
+// material sits at z = z0 U0 / u(x), so the layer fills z < h(x) = h_in U0 / u(x) and its
+// markers keep their density (the flow preserves area). By x = 0.25 m it has slowed down by
+// F = U0 / u = 10. Markers at the centres of the four strips of the opening are four
+// streamlines, F s_z apart (12.5 mm at F = 10, more than a cell), with empty cells between them
+// (measured with strip-centre injection: 6 of the 102 cells inside the layer empty, the first
+// at F = 5.8; fewer than the spacing suggests because the lines climb steeply across the cells
+// near the stagnation line); at random heights of their strips they sample the whole layer. Asserted at the end (t = 0.35 s, the layer is steady for
+// x < 0.25 m after 0.26 s): every cell that lies entirely inside the layer (top below
+// h(x) at its left edge) and downstream of the first column holds markers, and their mean
+// count is the lattice's n_x n_z = 16 (area conservation; 10 % allows for the cells the
+// layer's edge cuts at the bottom of its column strip).
+TEST(MarkersInflow, DeceleratedLayerLeavesNoEmptyCellInside) {
+  const Grid g{60, 30, 0.3, 0.15};
+  const Slab s = Slab::split(g.nx, 0, 1);
+  const double U0 = 2.5, a = 9.0, h_in = 0.005;
+  Field u, w;
+  fill_from_psi(g, s, false, [&](double x, double z) { return (U0 - a * x) * z; }, 1.0, u, w);
+  MarkerConfig c;
+  c.sides = {MarkerBoundary::Inflow, MarkerBoundary::Outflow, MarkerBoundary::Wall,
+             MarkerBoundary::Wall};
+  MarkerSet ms(MPI_COMM_SELF, g, s, c);
+  std::vector<double> uf(static_cast<std::size_t>(g.nz), 0.0);
+  uf[0] = U0;  // the opening is the bottom cell row
+  const double dt = 1e-3;  // U0 dt / dx = 0.5
+  for (int n = 0; n < 350; ++n) {
+    ms.advect(dt, u, w);
+    ms.inject(dt, h_in, uf);
+  }
+  const auto count = ms.cell_counts();
+  int inside = 0, empty = 0;
+  double sum = 0.0;
+  double first_empty_F = 0.0;
+  for (int i = 1; i < g.nx; ++i) {
+    const double x0 = i * g.dx();
+    if (U0 - a * (x0 + g.dx()) < 0.1 * U0) break;  // beyond F = 10
+    const double h = h_in * U0 / (U0 - a * x0);
+    for (int k = 0; (k + 1) * g.dz() <= h; ++k) {
+      const int n = count[static_cast<std::size_t>(i * g.nz + k)];
+      ++inside;
+      sum += n;
+      if (n == 0) {
+        ++empty;
+        if (first_empty_F == 0.0) first_empty_F = U0 / (U0 - a * x0);
+      }
+    }
+  }
+  std::printf("decelerated layer: %d cells inside, %d empty (first at F = %.2f), mean count "
+              "%.2f\n",
+              inside, empty, first_empty_F, sum / inside);
+  EXPECT_GT(inside, 80);  // the layer has thickened over several cells (not a vacuous check)
+  EXPECT_EQ(empty, 0);
+  EXPECT_NEAR(sum / inside, 16.0, 1.6);
+}
+
+// The hole check on hand-made flag fields (rows drawn top first: '.' Empty, 'F' Fluid, 'S'
+// Surface): the issue's case (the bed cell at the wall Empty under Surface and Fluid cells), a
+// void inside a deposit, the air under a free jet's overhang (open to the atmosphere around the
+// jet: not a hole), and an Empty pocket that only an open outflow side connects to the outside.
+TEST(MarkersFlags, EnclosedVoidsAreHolesOverhangsAreNot) {
+  const auto flags = [](const std::vector<std::string>& rows) {
+    const int nz = static_cast<int>(rows.size()), nx = static_cast<int>(rows[0].size());
+    std::vector<CellFlag> f(static_cast<std::size_t>(nx * nz));
+    for (int k = 0; k < nz; ++k)
+      for (int gi = 0; gi < nx; ++gi) {
+        const char c = rows[static_cast<std::size_t>(nz - 1 - k)][static_cast<std::size_t>(gi)];
+        f[static_cast<std::size_t>(gi * nz + k)] =
+            c == '.' ? CellFlag::Empty : c == 'S' ? CellFlag::Surface : CellFlag::Fluid;
+      }
+    return f;
+  };
+  // wall at the right end: the bottom cell at the wall is a hole, as is the deposit's inner void
+  const std::vector<std::string> deposit{"......", "....SS", "..SFFF", ".SF.FF", "SFFFF."};
+  const auto h = enclosed_voids(flags(deposit), 6, 5);
+  ASSERT_EQ(h.size(), 2u);
+  EXPECT_EQ(h[0], (std::array<int, 2>{3, 1}));
+  EXPECT_EQ(h[1], (std::array<int, 2>{5, 0}));
+  // a jet leaving a step over the empty bed: the air under it reaches the top around its tip
+  const std::vector<std::string> jet{".......", "SSSS...", "....S..", ".......", "FF....."};
+  EXPECT_TRUE(enclosed_voids(flags(jet), 7, 5).empty());
+  // a pocket against the right side: a hole at a wall, open at an outflow
+  const std::vector<std::string> pocket{"......", "SSSSSS", "FFFF..", "FFFFFF"};
+  EXPECT_EQ(enclosed_voids(flags(pocket), 6, 4).size(), 2u);
+  EXPECT_TRUE(enclosed_voids(flags(pocket), 6, 4, false, true).empty());
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -7,9 +7,10 @@
 //    ((a + 1/2) dx / n_x, (b + 1/2) dz / n_z) inside each cell), so each marker stands for the
 //    area A_m = dx dz / (n_x n_z) of material;
 //  - are injected at an inflow opening on the left side (x = 0, 0 <= z < h_in) with the
-//    inflow face velocities, one marker row per sub-lattice row, each row with a fractional
+//    inflow face velocities, one strip per sub-lattice row, each strip with a fractional
 //    accumulator so that the injected area equals int_0^t int_0^h_in u dz dt to within one
-//    marker per row, with no drift;
+//    marker per row, with no drift; each at a (hashed) random height of its strip, so that
+//    the strips form no material lines;
 //  - are advected with Heun's method (explicit trapezoidal RK2, second order in time) in the
 //    staggered velocity interpolated bilinearly as in NaSt2D (u on the grid shifted by dz/2 in
 //    z, w on the grid shifted by dx/2 in x);
@@ -113,8 +114,11 @@ class MarkerSet {
   /// Injects the markers that entered through the inflow opening 0 <= z < h_in of the left
   /// side during dt. Row r of the marker sub-lattice covers the strip [r s_z, min((r+1) s_z,
   /// h_in)] of height s_r; its inflow q_r (m^2/s) adds q_r dt / A_m to the row's accumulator,
-  /// and every whole unit becomes a marker at z = strip centre and x = the distance travelled
-  /// at the strip's mean velocity q_r / s_r since it crossed x = 0 during the step. So the
+  /// and every whole unit becomes a marker at x = the distance travelled at the strip's mean
+  /// velocity q_r / s_r since it crossed x = 0 during the step and at a uniformly distributed
+  /// height z of the strip (from a hash of the marker's id, so reproducible on any number of
+  /// ranks and across restarts; strip centres would make every strip a material line that a
+  /// decelerating flow spreads into empty cells, see inject_rows). So the
   /// injected area is int q dt to within one marker per row, without drift, for any dt
   /// sequence. Strips with q_r <= 0 inject nothing. Only the rank owning column 0 acts (the
   /// others return at once); the left side must be MarkerBoundary::Inflow. Call after advect().
@@ -214,5 +218,15 @@ class MarkerSet {
   long long seed_base_ = 0, inject_next_ = 0;
   long long injected_ = 0, removed_ = 0, migrated_ = 0;  // this rank's counters
 };
+
+/// Holes in the material (issue 11): the Empty cells of `flags` (the whole box, gi * nz + k)
+/// that enclosed voids are made of, i.e. whose 4-connected region of Empty cells reaches neither
+/// the top row of the box (the atmosphere above the flow) nor an open side (`open_left`,
+/// `open_right`: an outflow). Such a cell has material or a wall on every path out; in an
+/// incompressible free-surface flow it is a marker-sampling artefact, and its p = 0 Dirichlet
+/// value cuts the pressure of the material around it. The air under a free jet's overhang
+/// reaches the atmosphere around the jet and is not a hole. Returns {gi, k} of each hole cell.
+std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flags, int nx, int nz,
+                                               bool open_left = false, bool open_right = false);
 
 }  // namespace granflow::ndam

@@ -1,0 +1,92 @@
+#!/usr/bin/env python3
+"""Holes in the material of a free-surface 2D run, from its fields.h5 (issue 11).
+
+A hole is an Empty cell whose 4-connected region of Empty cells reaches neither the top row of
+the box (the atmosphere) nor an open side (a 2D subdomain's outflow into the next subdomain):
+an enclosed void, with material or a wall on every path out. The air under a free jet's
+overhang reaches the atmosphere around the jet and is not a hole. The same definition as
+ndam::enclosed_voids (include/granflow/ndam/markers.hpp), which the test suite applies at every
+step; this script applies it to every output of a run. Also prints the bottom pressure of the
+last column of the last 2D mesh (the wall column in a chute ending at a wall).
+
+Uses h5dump/h5ls (hdf5-tools), no Python HDF5 module.
+Usage: scripts/find_holes.py OUTPUT_DIR [--quiet]
+Exit status 1 if any hole was found, else 0."""
+import re
+import subprocess
+import sys
+from collections import deque
+
+EMPTY, FLUID, SURFACE = 3, 1, 2
+
+
+def run(*args):
+    return subprocess.run(args, capture_output=True, text=True, check=True).stdout
+
+
+def dataset(f, path):
+    txt = run("h5dump", "-w", "0", "-y", "-d", path, f)
+    dims = [int(v) for v in re.search(r"SIMPLE \{ \( ([\d, ]+) \)", txt).group(1).split(",")]
+    body = txt[txt.index("DATA {") + 6:txt.rindex("}")]
+    vals = [float(v) for v in re.findall(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?", body)]
+    if len(dims) == 2:  # z-major: value (k, i) at k * nx + i
+        nz, nx = dims
+        return [[vals[k * nx + i] for i in range(nx)] for k in range(nz)]
+    return vals
+
+
+def holes(flag, open_right):
+    """Cells (k, i) of enclosed voids; flag[k][i] the cell flags of one mesh."""
+    nz, nx = len(flag), len(flag[0])
+    reached = [[False] * nx for _ in range(nz)]
+    todo = deque()
+
+    def seed(k, i):
+        if flag[k][i] == EMPTY and not reached[k][i]:
+            reached[k][i] = True
+            todo.append((k, i))
+
+    for i in range(nx):
+        seed(nz - 1, i)
+    if open_right:
+        for k in range(nz):
+            seed(k, nx - 1)
+    while todo:
+        k, i = todo.popleft()
+        for kk, ii in ((k + 1, i), (k - 1, i), (k, i + 1), (k, i - 1)):
+            if 0 <= kk < nz and 0 <= ii < nx:
+                seed(kk, ii)
+    return [(k, i) for k in range(nz) for i in range(nx) if flag[k][i] == EMPTY and not reached[k][i]]
+
+
+def main():
+    if len(sys.argv) < 2:
+        print(__doc__)
+        return 2
+    out, quiet = sys.argv[1], "--quiet" in sys.argv[2:]
+    f = f"{out}/fields.h5"
+    steps = re.findall(r"^(step_\d+)", run("h5ls", f), re.M)
+    total, outputs_with_holes = 0, 0
+    for g in steps:
+        t = float(re.search(r"\(0\): ([-+\deE.]+)", run("h5dump", "-a", f"/{g}/time", f)).group(1))
+        meshes = re.findall(r"^(ndam\S*)", run("h5ls", f"{f}/{g}"), re.M)
+        found = []
+        for j, m in enumerate(meshes):
+            flag = [[int(v) for v in row] for row in dataset(f, f"/{g}/{m}/flag")]
+            x = dataset(f, f"/{g}/{m}/x_nodes")
+            z = dataset(f, f"/{g}/{m}/z_nodes")
+            # every 2D mesh but the last one of a coupled run drains into its neighbour
+            for k, i in holes(flag, open_right=j + 1 < len(meshes)):
+                found.append(f"{m}: x = {0.5 * (x[i] + x[i + 1]):.4f} m, z = {0.5 * (z[k] + z[k + 1]):.4f} m")
+        p = dataset(f, f"/{g}/{meshes[-1]}/p_Pa")
+        total += len(found)
+        outputs_with_holes += 1 if found else 0
+        if not quiet or found:
+            print(f"t = {t:.4f} s: {len(found)} hole cells; wall-column bottom p = {p[0][-1]:.0f} Pa"
+                  + ("".join("\n    " + s for s in found)))
+    print(f"{out}: {total} hole cells in {outputs_with_holes} of {len(steps)} outputs")
+    return 1 if total else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
