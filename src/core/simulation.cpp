@@ -151,6 +151,7 @@ void Simulation::write_output() {
     c.set("run/time", t);
     model_->save(c);
     if (io_rank()) io::write_checkpoint(rc_.directory + "/checkpoint.h5", c);
+    model_->restart_point();
   }
   ++outputs_;
   last_output_t_ = t;

@@ -393,6 +393,10 @@ void CoupledModel::save(io::Checkpoint& c) const {
   }
 }
 
+void CoupledModel::restart_point() {
+  for (auto& p : parts_) p.model->restart_point();
+}
+
 void CoupledModel::load(const io::Checkpoint& c) {
   // The layout of the checkpoint must be this model's (a changed scene is refused).
   if (c.arrays().count("coupled/models")) {

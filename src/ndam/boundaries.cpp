@@ -236,6 +236,9 @@ void NdamSolver::update_friction(const Field& p_yield) {
   if (cfg_.walls[2].kind == WallKind::Coulomb)
     for (int i = -G; i < nxl + G; ++i) {
       const int gi = mac_.slab.i0 + i;
+      // faces of a neighbour slab (or of the periodic wrap) take the owner's value below
+      const bool inside = cfg_.periodic_x() || (gi >= 0 && gi < cfg_.grid.nx);
+      if (inside && (i < 0 || i >= nxl)) continue;
       const int ir = std::min(i + 1, nxl + G - 1), il = std::max(i - 1, -G);
       double pb = 0.0;
       int n = 0;
@@ -252,6 +255,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double a = 1.0 - dz * beta(u_(i, 0)) * N / nub;
       bed_a_[static_cast<std::size_t>(i + G)] = std::max(-1.0, a);
     }
+  exchange_bed_factors();
   wall_a_.assign(static_cast<std::size_t>(nz), 1.0);
   if (cfg_.walls[1].kind == WallKind::Coulomb && mac_.slab.i0 + nxl == cfg_.grid.nx)
     for (int k = 0; k < nz - 1; ++k) {
@@ -272,6 +276,25 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double a = 1.0 - dx * beta(w_(i, k)) * N / nuw;
       wall_a_[static_cast<std::size_t>(k)] = std::max(-1.0, a);
     }
+}
+
+// The Coulomb factors of the faces in the ghost columns that belong to a neighbour slab (or to
+// the other end of a periodic box): the owner's values, so that every rank uses one factor per
+// face whatever the slab layout (and a restart, which stores the owners' values, sees the same).
+void NdamSolver::exchange_bed_factors() {
+  if (cfg_.walls[2].kind != WallKind::Coulomb) return;
+  const int G = Field::G, nxl = mac_.slab.nx_local;
+  auto* a = bed_a_.data();
+  // my first G faces to the left neighbour, its last G into my right ghosts; and mirrored
+  std::vector<double> recv_r(static_cast<std::size_t>(G), 1.0), recv_l(recv_r);
+  MPI_Sendrecv(a + G, G, MPI_DOUBLE, mac_.left, 21, recv_r.data(), G, MPI_DOUBLE, mac_.right, 21,
+               comm_, MPI_STATUS_IGNORE);
+  MPI_Sendrecv(a + nxl, G, MPI_DOUBLE, mac_.right, 22, recv_l.data(), G, MPI_DOUBLE, mac_.left,
+               22, comm_, MPI_STATUS_IGNORE);
+  if (mac_.right != MPI_PROC_NULL)
+    for (int q = 0; q < G; ++q) a[nxl + G + q] = recv_r[static_cast<std::size_t>(q)];
+  if (mac_.left != MPI_PROC_NULL)
+    for (int q = 0; q < G; ++q) a[q] = recv_l[static_cast<std::size_t>(q)];
 }
 
 }  // namespace granflow::ndam

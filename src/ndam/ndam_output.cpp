@@ -134,6 +134,27 @@ NdamState NdamSolver::export_state() const {
     s.mass0 = mass0_;
     s.inflow_owed = inflow_owed_;
   }
+  // the lagged Coulomb factors: the owners' faces of every column, and the G ghost faces beyond
+  // each end of the box (rank 0 and the last rank own those)
+  {
+    const int G = Field::G, nxl = mac_.slab.nx_local;
+    const std::vector<double> own(bed_a_.begin() + G, bed_a_.begin() + G + nxl);
+    const auto all = mac_.gather_columns(own);
+    std::vector<double> ends(static_cast<std::size_t>(2 * G), 1.0);
+    for (int q = 0; q < G; ++q) {
+      ends[static_cast<std::size_t>(q)] = bed_a_[static_cast<std::size_t>(q)];
+      ends[static_cast<std::size_t>(G + q)] = bed_a_[static_cast<std::size_t>(nxl + G + q)];
+    }
+    MPI_Bcast(ends.data(), G, MPI_DOUBLE, 0, comm_);
+    MPI_Bcast(ends.data() + G, G, MPI_DOUBLE, mac_.slab.ranks - 1, comm_);
+    s.bed_factor.assign(ends.begin(), ends.begin() + G);
+    s.bed_factor.insert(s.bed_factor.end(), all.begin(), all.end());
+    s.bed_factor.insert(s.bed_factor.end(), ends.begin() + G, ends.end());
+    s.wall_factor = wall_a_;
+    MPI_Bcast(s.wall_factor.data(), static_cast<int>(s.wall_factor.size()), MPI_DOUBLE,
+              mac_.slab.ranks - 1, comm_);
+    s.momentum_dt = momentum_dt_;
+  }
   return s;
 }
 
@@ -177,9 +198,37 @@ void NdamSolver::import_state(const NdamState& s) {
   for (int gi = 0; gi < cfg_.grid.nx; ++gi)
     for (int k = 0; k < cfg_.grid.nz; ++k)
       if (mac_.p_unknown(gi, k)) ++fluid_cells_;
+  momentum_dt_ = s.momentum_dt;
+  const int G = Field::G, nxl = mac_.slab.nx_local;
+  const bool factors = s.bed_factor.size() == static_cast<std::size_t>(cfg_.grid.nx + 2 * G) &&
+                       s.wall_factor.size() == static_cast<std::size_t>(cfg_.grid.nz);
+  if (factors) {
+    // the factors the straight run's next step reads: the lagged ones of its last step
+    for (int i = -G; i < nxl + G; ++i) {
+      const int gi = mac_.slab.i0 + i;
+      if (gi >= -G && gi < cfg_.grid.nx + G)
+        bed_a_[static_cast<std::size_t>(i + G)] = s.bed_factor[static_cast<std::size_t>(gi + G)];
+    }
+    exchange_bed_factors();
+    wall_a_ = s.wall_factor;
+  }
   fill_velocity_ghosts(u_, w_);
   fill_scalar_ghosts(p_);
+  if (!factors) {
+    // a state without them (a box rebuilt from converted columns): from the state itself
+    update_viscosity(p_);
+    fill_velocity_ghosts(u_, w_);
+  }
   update_viscosity(p_);
+  if (factors) {  // update_viscosity also set the factors: the lagged ones are what step() reads
+    for (int i = -G; i < nxl + G; ++i) {
+      const int gi = mac_.slab.i0 + i;
+      if (gi >= -G && gi < cfg_.grid.nx + G)
+        bed_a_[static_cast<std::size_t>(i + G)] = s.bed_factor[static_cast<std::size_t>(gi + G)];
+    }
+    exchange_bed_factors();
+    wall_a_ = s.wall_factor;
+  }
   if (markers_) update_profile_cache();
   u_new_ = u_;
   w_new_ = w_;
@@ -216,6 +265,9 @@ void NdamSolver::save(io::Checkpoint& c) const {
     c.set("ndam/mass0", s.mass0);
     c.set("ndam/inflow_owed", s.inflow_owed);
   }
+  c.set("ndam/bed_factor", s.bed_factor);
+  c.set("ndam/wall_factor", s.wall_factor);
+  c.set("ndam/momentum_dt", s.momentum_dt);
 }
 
 void NdamSolver::load(const io::Checkpoint& c) {
@@ -250,7 +302,17 @@ void NdamSolver::load(const io::Checkpoint& c) {
     s.mass0 = c.scalar("ndam/mass0");
     if (c.scalars().count("ndam/inflow_owed")) s.inflow_owed = c.scalar("ndam/inflow_owed");
   }
+  if (c.arrays().count("ndam/bed_factor")) {
+    s.bed_factor = c.array("ndam/bed_factor");
+    s.wall_factor = c.array("ndam/wall_factor");
+    s.momentum_dt = c.scalar("ndam/momentum_dt");
+  }
   import_state(s);
+}
+
+void NdamSolver::restart_point() {
+  pressure_->invalidate_preconditioner();
+  if (momentum_) momentum_->invalidate_preconditioner();
 }
 
 NdamStatistics NdamSolver::statistics() const {

@@ -16,6 +16,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <sstream>
 
 #include <unistd.h>
@@ -178,8 +179,12 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
     if (s.model == "Coupled") {
       const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));
       auto d = coupling::Decomposition::from_parameters(p.sublist("Decomposition"), channel);
-      const auto init = [&](dam::DamSolver& dam) {
-        dam::InitialCondition::apply(p.sublist("Initial condition"), uic, channel, dam);
+      // The factory keeps this for the whole run (a restart of a dynamic layout rebuilds parts
+      // with it), so it owns copies of what it reads, not references into this function.
+      const auto init = [ic = p.sublist("Initial condition"),
+                         user_ic = uic ? std::make_shared<const ParameterList>(*uic) : nullptr,
+                         channel](dam::DamSolver& dam) {
+        dam::InitialCondition::apply(ic, user_ic.get(), channel, dam);
       };
       const bool dynamic = d.layout == "Dynamic";
       if (d.layout == "A priori" || (dynamic && d.initial_layout == "A priori"))

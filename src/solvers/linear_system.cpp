@@ -437,6 +437,11 @@ RCP<OP> build_preconditioner(const RCP<Matrix>& A, const ParameterList& p,
 }
 }  // namespace
 
+void LinearSystem::invalidate_preconditioner() {
+  impl_->prec = Teuchos::null;
+  impl_->prec_stale = true;
+}
+
 SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>& x) {
   auto& m = *impl_;
   if (m.A.is_null()) throw std::logic_error("LinearSystem::solve before end()");

@@ -32,6 +32,7 @@ struct Chute {
   double cell = 0.01;
   double height = 0.15;  // N-DAM->Height, with 'Cells z' = height / cell
   double cfl = 0.5;  // N-DAM CFL
+  std::string ndam_extra;  // further N-DAM parameters or sublists (XML lines)
 
   std::string xml() const {
     const int nx = static_cast<int>(std::lround(length / cell));
@@ -73,7 +74,7 @@ struct Chute {
     <Parameter name="Cells z" type="int" value=")x" + std::to_string(std::lround(height / cell)) + R"x("/>
     <Parameter name="Height" type="double" value=")x" + std::to_string(height) + R"x("/>
     <Parameter name="Momentum" type="string" value="Implicit"/>
-    <Parameter name="CFL" type="double" value=")x" + std::to_string(cfl) + R"x("/>
+    <Parameter name="CFL" type="double" value=")x" + std::to_string(cfl) + R"x("/>)x" + ndam_extra + R"x(
     <Parameter name="Free surface" type="bool" value="true"/>
     <Parameter name="Friction regularisation" type="double" value="100"/>
     <ParameterList name="Boundaries">

@@ -81,6 +81,10 @@ class Stepper {
   /// Field snapshot (HDF5 + XDMF).
   virtual void write_fields(io::FieldWriter& w) const = 0;
   virtual void save(io::Checkpoint& c) const = 0;
+  /// Called after a checkpoint of the current state was written: the run may be restarted from
+  /// here, so state that the checkpoint cannot hold and that the next steps would read (lagged
+  /// preconditioners) is dropped, and the straight run and a restarted one continue alike.
+  virtual void restart_point() {}
   virtual void load(const io::Checkpoint& c) = 0;
   /// Solver statistics for summary.json.
   virtual void report(nlohmann::json& stats) const = 0;

@@ -85,6 +85,7 @@ class CoupledModel final : public core::Stepper {
   void write_fields(io::FieldWriter& w) const override;
   void save(io::Checkpoint& c) const override;
   void load(const io::Checkpoint& c) override;
+  void restart_point() override;
   void report(nlohmann::json& stats) const override;
 
   const std::vector<Subdomain>& parts() const { return parts_; }

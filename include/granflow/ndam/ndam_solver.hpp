@@ -91,6 +91,7 @@ class NdamSolver final : public core::Stepper {
   void write_fields(io::FieldWriter& w) const override;
   void save(io::Checkpoint& c) const override;
   void load(const io::Checkpoint& c) override;
+  void restart_point() override;
   void report(nlohmann::json& stats) const override;
 
   // Inspection (tests, benchmark, the coupling).
@@ -175,6 +176,7 @@ class NdamSolver final : public core::Stepper {
   void boundary_faces(Field& u, Field& w) const;
   void fill_scalar_ghosts(Field& s) const;
   void update_friction(const Field& p_yield);
+  void exchange_bed_factors();
   // --- inflow.cpp: the silo gate and the 1D-to-2D interface (eqs. 24-27) -------------------
   void gate_state(double dt);
   double inflow_face(int k) const;  // u(-1, k) of the gate (material velocity of the open rows)

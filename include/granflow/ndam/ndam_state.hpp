@@ -21,6 +21,10 @@ struct NdamState {
   long long injected = 0, removed = 0;       ///< global marker counters
   double mass0 = 0.0;                        ///< marker area at t = 0 [m^2]
   double inflow_owed = 0.0;                  ///< inflow mass carried to later steps [m^2]
+  // lagged factors the next step's ghost values read (empty: computed from this state)
+  std::vector<double> bed_factor;   ///< Coulomb ghost factor of u(gi, -1), gi = -G .. nx + G - 1
+  std::vector<double> wall_factor;  ///< Coulomb ghost factor of w(nx, k), k = 0 .. nz - 1
+  double momentum_dt = -1.0;        ///< dt of the assembled momentum matrix (Newtonian reuse)
 };
 
 }  // namespace granflow::ndam

@@ -62,6 +62,9 @@ class LinearSystem {
   void end();
   /// Solve A x = b for the local parts of b and x; x holds the initial guess on entry.
   SolveStats solve(const std::vector<double>& b, std::vector<double>& x);
+  /// The next solve sets up a new preconditioner (a restart point: a lagged preconditioner is
+  /// state that no checkpoint holds, so straight and restarted runs both rebuild here).
+  void invalidate_preconditioner();
 
   long long global_rows() const;
   int local_rows() const;
