@@ -8,7 +8,10 @@
 //
 // where w'_j, f'_j are undivided slopes (minmod-limited, or Beam-Warming upwind differences) and
 // S = (0, h g sin(zeta) - sgn(u) h g cos(zeta) tan(delta)). The friction part of S is applied as
-// a bounded impulse: it reduces |hu| by at most |hu|, so it opposes motion and never reverses it.
+// a bounded impulse: it reduces |hu| by at most |hu|, so it opposes motion and never reverses it;
+// a cell whose momentum the friction can absorb with an earth pressure between K_act and K_pas
+// comes to rest (step(), "Coming to rest"). K is held fixed inside each cell an update
+// integrates over. A prescribed inflow imposes its flux through the channel end.
 #include "granflow/dam/dam_solver.hpp"
 
 #include "granflow/io/fields.hpp"
@@ -122,9 +125,20 @@ double DamPhysics::K(double u_x) const {
   return 0.5 * (K_act + K_pas) - 0.5 * (K_pas - K_act) * std::tanh(u_x / k_smoothing);
 }
 
+std::array<double, 2> DamPhysics::K_bounds() const {
+  switch (model) {
+    case EarthPressure::Active: return {K_act, K_act};
+    case EarthPressure::Passive: return {K_pas, K_pas};
+    case EarthPressure::Isotropic: return {1.0, 1.0};
+    case EarthPressure::SavageHutter: break;
+  }
+  return {std::min(K_act, K_pas), std::max(K_act, K_pas)};
+}
+
 DamBoundary DamBoundary::from(const core::BoundarySpec& spec) {
   DamBoundary b;
   b.type = spec.type;
+  b.prescribed = spec.type == BoundaryType::Inflow;
   if (spec.type == BoundaryType::Inflow) {
     const core::InflowSeries s = spec.inflow;
     b.inflow = [s](double t, double) {
@@ -208,11 +222,27 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
     hu[at(dst)] = huv;
   };
   const int off = on_b ? 1 : 0;  // mirror about a centre skips the centre cell
+  // Inflow ghosts. An interface's ghosts take the neighbour's state where they lie. A
+  // prescribed state (h_in, u_in) holds at the end x0 itself, a cell face of the primary grid,
+  // so there the ghosts are the reflection 2 w_in - w_end that puts w_in on the face: the end
+  // cell's slope then sees the profile's real gradient (a ghost equal to w_in, i.e. w_in half
+  // a cell upstream of x0, halved the slope of an accelerating inflow and made an O(dx) error
+  // of 1.2e-3 in the Bernoulli constant of the steady supercritical test at N = 200, 3.6e-4
+  // with the reflection). Where that would leave a ghost shallower than h_in / 2 (material
+  // piled up at the end, or a dry inflow) the ghosts are w_in. The ghosts only shape slopes and
+  // the predictor: what enters is the end flux of step().
+  auto set_inflow = [&](int dst, int end, const std::array<double, 2>& s, bool prescribed) {
+    const double hr = 2.0 * s[0] - h[at(end)], hur = 2.0 * s[0] * s[1] - hu[at(end)];
+    if (prescribed && !on_b && hr >= 0.5 * s[0] && s[0] > cfg_.dry_depth)
+      set(dst, hr, hur);
+    else
+      set(dst, s[0], s[0] * s[1]);
+  };
   switch (left_.type) {
     case BoundaryType::Inflow:
       for (int g = -2; g <= -1; ++g) {
         const auto s = left_.inflow(t, x0_ + (g + (on_b ? 0.0 : 0.5)) * dx_);
-        set(g, s[0], s[0] * s[1]);
+        set_inflow(g, 0, s, left_.prescribed);
       }
       break;
     case BoundaryType::Outflow:
@@ -230,7 +260,7 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
     case BoundaryType::Inflow:
       for (int g = 0; g <= 1; ++g) {
         const auto s = right_.inflow(t, x0_ + (n + g + (on_b ? 0.0 : 0.5)) * dx_);
-        set(n + g, s[0], s[0] * s[1]);
+        set_inflow(n + g, n - 1, s, right_.prescribed);
       }
       break;
     case BoundaryType::Outflow:
@@ -311,10 +341,28 @@ void DamSolver::step(double dt) {
                              h[at(jp)] > cfg_.dry_depth, jp - j, dx_);
     beta[at(j)] = phys_.g_cos * phys_.K(ux);
   }
-  auto flux = [&](int j, double hv, double huv, double& f0, double& f1) {
+  // Momentum flux hu^2/h + beta h^2/2 of a state with a given beta.
+  auto mflux = [&](double hv, double huv, double b) {
     const double uv = velocity(hv, huv);
+    return huv * uv + 0.5 * b * hv * hv;
+  };
+  auto flux = [&](int j, double hv, double huv, double& f0, double& f1) {
     f0 = huv;
-    f1 = huv * uv + 0.5 * beta[at(j)] * hv * hv;
+    f1 = mflux(hv, huv, beta[at(j)]);
+  };
+  // K is held fixed inside each cell that an update integrates over: the predictor of old cell
+  // j differences the flux of its neighbours with its own beta_j, and the corrector of a new
+  // cell between old cells L and R takes both fluxes with the beta of the new cell, from the
+  // velocity difference across it, (u_R - u_L)/dx (a dry side: the wet cell's beta). The
+  // pressure force on a cell is then beta (h^2/2)_x with the cell's K, and a jump of K between
+  // neighbouring cells is no force. (Before, each old cell's flux carried its own beta_j: in a
+  // deposit where moving and resting cells alternate, neighbours switched between K_act and
+  // K_pas, and (beta_p - beta_a) h^2 / (2 dx) was a force ~4x the friction that kept the
+  // pattern creeping at ~0.1 m/s; docs/numerics.md, "Earth pressure on the grid".)
+  auto beta_face = [&](std::size_t L, std::size_t R) {
+    const bool wl = h[L] > cfg_.dry_depth, wr = h[R] > cfg_.dry_depth;
+    if (wl && wr) return phys_.g_cos * phys_.K((u[R] - u[L]) / dx_);
+    return wl ? beta[L] : beta[R];
   };
 
   // --- 3. slopes of w and f on cells -1 .. n ------------------------------------------------
@@ -322,17 +370,30 @@ void DamSolver::step(double dt) {
   for (int j = -2; j < n + 2; ++j) flux(j, h[at(j)], hu[at(j)], f0[at(j)], f1[at(j)]);
   std::vector<double> sh(h.size(), 0.0), shu(h.size(), 0.0), sf0(h.size(), 0.0),
       sf1(h.size(), 0.0);
-  auto slope = [&](const std::vector<double>& v, int j) {
-    const double dm = v[at(j)] - v[at(j - 1)], dp = v[at(j + 1)] - v[at(j)];
+  auto limit = [&](double dm, double dp, int j) {
     if (wall_centred(j, n, on_b)) return 0.5 * (dm + dp);  // symmetric about the wall
     if (cfg_.scheme == Scheme::Minmod) return minmod(dm, dp);
     return u[at(j)] >= 0.0 ? dm : dp;  // Beam-Warming: one-sided upwind difference
   };
+  auto slope = [&](const std::vector<double>& v, int j) {
+    return limit(v[at(j)] - v[at(j - 1)], v[at(j + 1)] - v[at(j)], j);
+  };
   for (int j = -1; j <= n; ++j) {
-    sh[at(j)] = slope(h, j);
-    shu[at(j)] = slope(hu, j);
-    sf0[at(j)] = slope(f0, j);
-    sf1[at(j)] = slope(f1, j);
+    const auto k = at(j);
+    sh[k] = slope(h, j);
+    shu[k] = slope(hu, j);
+    // A wet cell next to a dry one (a front): the momentum slope follows the depth slope,
+    // hu' = u h', i.e. the velocity is constant across the front cell. Limited separately,
+    // h' and hu' of the front cell differ (the minmod of hu picks the jump to the dry cell
+    // where that of h does not), and the average of the two reconstructions over the new
+    // front cell then carried a velocity of its own: the tip of a dam break on a dry bed ran
+    // at 3.6-4.5 m/s where the Ritter front speed is 2.1 m/s + s t (bound with K(0): 4.27).
+    if (h[k] > cfg_.dry_depth && (h[k - 1] <= cfg_.dry_depth || h[k + 1] <= cfg_.dry_depth))
+      shu[k] = u[k] * sh[k];
+    sf0[k] = slope(f0, j);
+    // neighbours' momentum fluxes with this cell's beta (K fixed inside the cell, see above)
+    sf1[k] = limit(f1[k] - mflux(h[k - 1], hu[k - 1], beta[k]),
+                   mflux(h[k + 1], hu[k + 1], beta[k]) - f1[k], j);
   }
 
   // --- 4. predictor to t + dt/2 on the interior cells; ghosts from the boundary conditions --
@@ -346,10 +407,35 @@ void DamSolver::step(double dt) {
     hum[k] = (wall_centred(j, n, on_b) || hm[k] <= cfg_.dry_depth) ? 0.0 : q;
   }
   fill_ghosts(hm, hum, n, on_b, t_ + 0.5 * dt);
-  std::vector<double> g0(h.size()), g1(h.size());  // fluxes at t + dt/2
-  for (int j = -1; j <= n; ++j) flux(j, hm[at(j)], hum[at(j)], g0[at(j)], g1[at(j)]);
+  std::vector<double> g0(h.size());  // mass fluxes at t + dt/2 (momentum: with the new cell's K)
+  for (int j = -1; j <= n; ++j) g0[at(j)] = hum[at(j)];
+  auto g1 = [&](std::size_t k, double b) { return mflux(hm[k], hum[k], b); };
 
-  // --- 5. corrector onto the other grid ------------------------------------------------------
+  // --- 5. fluxes through the channel ends at prescribed inflows ------------------------------
+  // A prescribed inflow end is a cell face of both grids: the end cell of the staggered grid is
+  // the half cell between the end and the first primary centre, its value the average over
+  // that half cell (so the mass of a staggered state, end cells weighted 1/2, is the mass in the
+  // channel), and all that enters through the end in a step is dt F, F the flux of the inflow
+  // state at t + dt/2 (midpoint rule in time): h_in u_in dt whatever dt. Before, the full
+  // staggered end cell straddled the end with its outer half in the ghost, reset to the inflow
+  // state every step, and dx (h_in - h_0)/4 of it was booked as inflow per step whatever dt
+  // (3.2e-4 m^2 in 100 steps of 1e-7 s where h_in u_in t is 2.2e-7 m^2; docs/validation.md).
+  // beta: the K of the new end cell (bc below).
+  // An interface to a neighbouring subdomain keeps the overlapping form: its ghosts are the
+  // neighbour's state where they lie, the staggered end cell straddles the interface, and on
+  // matching grids the split channel tends to the single one as dt -> 0 (the transfers of the
+  // two sides agree to 5e-4 at CFL 0.45, 7e-7 at a hundredth of it; docs/validation.md).
+  const bool half_left = left_.type == BoundaryType::Inflow && left_.prescribed;
+  const bool half_right = right_.type == BoundaryType::Inflow && right_.prescribed;
+  auto end_flux = [&](const DamBoundary& b, double x_end, double bc) -> std::array<double, 2> {
+    const auto s = b.inflow(t_ + 0.5 * dt, x_end);
+    return {s[0] * s[1], s[0] * s[1] * s[1] + 0.5 * bc * s[0] * s[0]};
+  };
+  std::array<double, 2> F_left{0.0, 0.0}, F_right{0.0, 0.0};
+  const auto K_range = phys_.K_bounds();
+  const double beta_lo = phys_.g_cos * K_range[0], beta_hi = phys_.g_cos * K_range[1];
+
+  // --- 6. corrector onto the other grid ------------------------------------------------------
   // primary -> staggered: new cell j (j = 0..n) sits between old cells j-1 and j;
   // staggered -> primary: new cell j (j = 0..n-2) sits between old cells j and j+1.
   const int nn = on_b ? n - 1 : n + 1;
@@ -358,20 +444,68 @@ void DamSolver::step(double dt) {
   hu_new_.assign(static_cast<std::size_t>(nn), 0.0);
   for (int j = 0; j < nn; ++j) {
     const auto L = at(j + shift), R = at(j + shift + 1);
-    const double hn = 0.5 * (h[L] + h[R]) + 0.125 * (sh[L] - sh[R]) - lam * (g0[R] - g0[L]);
-    double q = 0.5 * (hu[L] + hu[R]) + 0.125 * (shu[L] - shu[R]) - lam * (g1[R] - g1[L]);
-    const double hmid = 0.5 * (hm[L] + hm[R]);
+    double hn, q, hmid;
+    bool held = false;
+    const double bc = beta_face(L, R);  // K of the new cell
+    if (half_left && j == 0) F_left = end_flux(left_, x0_, bc);
+    if (half_right && j == nn - 1) F_right = end_flux(right_, x1_, bc);
+    if (!on_b && j == 0 && half_left) {
+      // half cell [x0, x0 + dx/2]: the left half of old cell 0's reconstruction, the end flux
+      // in, the flux at old cell 0's centre out (widths dx/2: factor 2 lam)
+      hn = h[R] - 0.25 * sh[R] + 2.0 * lam * (F_left[0] - g0[R]);
+      q = hu[R] - 0.25 * shu[R] + 2.0 * lam * (F_left[1] - g1(R, bc));
+      hmid = hm[R] - 0.25 * sh[R];  // source at the half cell's centre x0 + dx/4
+    } else if (!on_b && j == nn - 1 && half_right) {
+      hn = h[L] + 0.25 * sh[L] + 2.0 * lam * (g0[L] - F_right[0]);
+      q = hu[L] + 0.25 * shu[L] + 2.0 * lam * (g1(L, bc) - F_right[1]);
+      hmid = hm[L] + 0.25 * sh[L];
+    } else if (on_b && j == 0 && half_left) {
+      // old cell 0 is the half cell (its average counts as it is); old cell 1 gives its left
+      // half; fluxes: the end flux in at x0, old cell 1's centre flux out
+      hn = 0.5 * h[L] + 0.5 * (h[R] - 0.25 * sh[R]) - lam * (g0[R] - F_left[0]);
+      q = 0.5 * hu[L] + 0.5 * (hu[R] - 0.25 * shu[R]) - lam * (g1(R, bc) - F_left[1]);
+      hmid = 0.5 * hm[L] + 0.5 * (hm[R] - 0.25 * sh[R]);
+    } else if (on_b && j == nn - 1 && half_right) {
+      hn = 0.5 * (h[L] + 0.25 * sh[L]) + 0.5 * h[R] - lam * (F_right[0] - g0[L]);
+      q = 0.5 * (hu[L] + 0.25 * shu[L]) + 0.5 * hu[R] - lam * (F_right[1] - g1(L, bc));
+      hmid = 0.5 * (hm[L] + 0.25 * sh[L]) + 0.5 * hm[R];
+    } else {
+      hn = 0.5 * (h[L] + h[R]) + 0.125 * (sh[L] - sh[R]) - lam * (g0[R] - g0[L]);
+      q = 0.5 * (hu[L] + hu[R]) + 0.125 * (shu[L] - shu[R]) - lam * (g1(R, bc) - g1(L, bc));
+      hmid = 0.5 * (hm[L] + hm[R]);
+      // Coming to rest. The momentum after the step without friction is
+      //   q*(beta) = A - lam beta dP,  A = inertia, advection and gravity,
+      //   dP = (h_R^2 - h_L^2)/2 of the predicted depths (the pressure of the new cell).
+      // Material at rest is statically indeterminate: its earth pressure can take any K
+      // between K_act and K_pas (the two Rankine limits of the Mohr-Coulomb material). The cell
+      // is at rest after the step if some such K lets the friction impulse absorb q*:
+      //   min over beta in [beta_act, beta_pas] of |q*(beta)| <= dt g cos(zeta) tan(delta) h,
+      // which for a layer at rest is |g sin(zeta) h - g cos(zeta) K h h_x| <= g cos(zeta)
+      // tan(delta) h for some admissible K. Otherwise it moves with the K of its strain rate
+      // (bc) and the friction reduces |hu| by its bound. With one K (Active, Passive,
+      // Isotropic) the test is the usual one.
+      const double A = 0.5 * (hu[L] + hu[R]) + 0.125 * (shu[L] - shu[R]) -
+                       lam * (g1(R, 0.0) - g1(L, 0.0)) + dt * phys_.g_sin * hmid;
+      const double dP = 0.5 * (hm[R] * hm[R] - hm[L] * hm[L]);
+      const double v1 = A - lam * beta_lo * dP, v2 = A - lam * beta_hi * dP;
+      const double vmin = v1 * v2 <= 0.0 ? 0.0 : std::min(std::abs(v1), std::abs(v2));
+      held = vmin <= dt * phys_.g_cos * phys_.tan_delta * hmid;
+    }
     q += dt * phys_.g_sin * hmid;
     const double fric = dt * phys_.g_cos * phys_.tan_delta * hmid;
-    q = std::copysign(std::max(std::abs(q) - fric, 0.0), q);
+    q = held ? 0.0 : std::copysign(std::max(std::abs(q) - fric, 0.0), q);
     h_new_[static_cast<std::size_t>(j)] = hn;
     hu_new_[static_cast<std::size_t>(j)] = wall_centred(j, nn, !on_b) ? 0.0 : q;
   }
 
-  // --- 6. what crossed the channel ends in this step (exact, from the update above) ---------
+  // --- 7. what crossed the channel ends in this step (exact, from the update above) ---------
   // Summing the corrector over the new grid (end cells of a staggered grid weighted 1/2)
   // telescopes to old mass + the boundary terms below; they are recorded so that the mass
-  // ledger closes to round-off (docs/numerics.md, "mass ledger").
+  // ledger closes to round-off (docs/numerics.md, "mass ledger"). At a prescribed inflow the
+  // term is dt F exactly. At Outflow, Wall and Periodic ends the ghosts copy or mirror the
+  // interior, so the slope and depth terms below vanish or cancel and what is booked is a flux
+  // times dt; at an interface they are the overlap's half-cell terms, which the neighbour books
+  // with the opposite sign to within the mismatch the coupled model reports.
   double in_left, in_right;
   if (!on_b) {
     const auto a = at(-1), b = at(0), c = at(n - 1), d = at(n);
@@ -381,10 +515,12 @@ void DamSolver::step(double dt) {
     in_left = dx_ * sh[at(0)] / 8.0 + dt * g0[at(0)];
     in_right = -dx_ * sh[at(n - 1)] / 8.0 - dt * g0[at(n - 1)];
   }
+  if (half_left) in_left = dt * F_left[0];
+  if (half_right) in_right = -dt * F_right[0];
   in_new_ = in_left;
   out_new_ = -in_right;
 
-  // --- 7. positivity and dry cells ------------------------------------------------------------
+  // --- 8. positivity and dry cells ------------------------------------------------------------
   fixes_new_ = 0;
   fix_positivity(h_new_, hu_new_, !on_b);
   for (std::size_t k = 0; k < h_new_.size(); ++k)
@@ -478,13 +614,21 @@ void DamSolver::primary(std::vector<double>& h, std::vector<double>& hu) const {
     const double dm = v[at(j)] - v[at(j - 1)], dp = v[at(j + 1)] - v[at(j)];
     return wall_centred(j, n, true) ? 0.5 * (dm + dp) : minmod(dm, dp);
   };
+  // The end cell at an Inflow end is the half cell inside the channel (see step()): its value
+  // is its average, whatever the reconstruction's slope, so its slope counts as 0 here.
+  const bool half_left = left_.type == BoundaryType::Inflow && left_.prescribed;
+  const bool half_right = right_.type == BoundaryType::Inflow && right_.prescribed;
+  auto slope = [&](const std::vector<double>& v, int j) {
+    if ((j == 0 && half_left) || (j == n - 1 && half_right)) return 0.0;
+    return sl(v, j);
+  };
   h.assign(static_cast<std::size_t>(n_), 0.0);
   hu.assign(static_cast<std::size_t>(n_), 0.0);
   for (int j = 0; j < n_; ++j) {
     h[static_cast<std::size_t>(j)] =
-        0.5 * (ph[at(j)] + ph[at(j + 1)]) + 0.125 * (sl(ph, j) - sl(ph, j + 1));
+        0.5 * (ph[at(j)] + ph[at(j + 1)]) + 0.125 * (slope(ph, j) - slope(ph, j + 1));
     hu[static_cast<std::size_t>(j)] =
-        0.5 * (phu[at(j)] + phu[at(j + 1)]) + 0.125 * (sl(phu, j) - sl(phu, j + 1));
+        0.5 * (phu[at(j)] + phu[at(j + 1)]) + 0.125 * (slope(phu, j) - slope(phu, j + 1));
   }
 }
 

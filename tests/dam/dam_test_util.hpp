@@ -58,6 +58,7 @@ inline DamBoundary boundary(BoundaryType t) {
 inline DamBoundary inflow(std::function<std::array<double, 2>(double)> f) {
   DamBoundary b;
   b.type = BoundaryType::Inflow;
+  b.prescribed = true;
   b.inflow = [f = std::move(f)](double t, double) { return f(t); };
   return b;
 }

@@ -13,8 +13,9 @@
 // x0 + j dx whose two end cells straddle the channel ends and count half in the mass. Slopes are
 // either minmod-limited (TVD) or, in the paper's limiter-free variant, Beam-Warming (one-sided
 // upwind differences). Bed friction is applied so that it opposes the motion and never reverses
-// it: material decelerates, stops and stays where |driving force| <= friction. See
-// docs/numerics.md for the derivation of each block.
+// it: material decelerates, stops and stays where |driving force| <= friction for some earth
+// pressure between K_act and K_pas. A prescribed inflow is a cell face of both grids and lets in
+// exactly the flux of its state. See docs/numerics.md for the derivation of each block.
 #include "granflow/core/channel.hpp"
 #include "granflow/core/material.hpp"
 #include "granflow/core/stepper.hpp"
@@ -64,6 +65,9 @@ struct DamPhysics {
   /// Earth pressure coefficient for a velocity gradient u_x: active for u_x > 0, passive for
   /// u_x < 0, switched smoothly, K = (K_a + K_p)/2 - (K_p - K_a)/2 tanh(u_x / k_smoothing).
   double K(double u_x) const;
+  /// The range of K that material at rest can take: [K_act, K_pas] (the Rankine limits) for
+  /// Savage-Hutter, the one value otherwise.
+  std::array<double, 2> K_bounds() const;
 };
 
 /// A DAM boundary: its type and, for Inflow, the state (h, u) it imposes at time t on a ghost
@@ -71,9 +75,15 @@ struct DamPhysics {
 /// interface the coupled model samples the depth-averaged 2D state at the ghost centres, which
 /// lie inside the neighbouring 2D subdomain (eqs. 19-21), so the time-staggered 1D grid reads
 /// the 2D field where its ghost cells really are.
+///
+/// A prescribed inflow (`prescribed`, set by `from` for the channel's gate) imposes the flux of
+/// its state at the end: all that enters in a step is the flux of (h_in, u_in)(t + dt/2) times
+/// dt, whatever dt. An interface (`prescribed` false, the default, as the coupled model builds
+/// it) overlaps: its ghosts are the neighbour's state where they lie.
 struct DamBoundary {
   core::BoundaryType type = core::BoundaryType::Outflow;
   std::function<std::array<double, 2>(double t, double x)> inflow;  ///< (t, x) -> {h, u}
+  bool prescribed = false;  ///< Inflow only: a prescribed inflow (true) or an interface (false)
   static DamBoundary from(const core::BoundarySpec& spec);
 };
 
