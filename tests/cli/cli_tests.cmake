@@ -31,6 +31,9 @@ granflow_cli_test(one_sided_periodic 2 "Right boundary->Type' = Outflow.*periodi
                   ${_cli}/bad_one_sided_periodic.xml)
 granflow_cli_test(missing_series_file 2 "Inflow series file' = .*no_such_series.csv.*cannot open"
                   ${_cli}/bad_missing_series.xml)
+granflow_cli_test(series_negative_velocity 2
+                  "Inflow series file' = .*bad_series_negative_u.csv: line 3: velocity u = -0.2.*allowed: u >= 0"
+                  ${_cli}/bad_series_negative_u.xml)
 granflow_cli_test(unknown_model 2 "Model' = Navier.*allowed" ${_cli}/bad_unknown_model.xml)
 granflow_cli_test(ic_parameter_of_other_type 2 "Initial condition->Left depth.*not used by initial condition Type 'Uniform'"
                   ${_cli}/bad_ic_mismatch.xml)
