@@ -43,8 +43,15 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
              "Beam-Warming (the paper's limiter-free variant for smooth supercritical flow; "
              "oscillates at shocks)",
              {"Minmod", "Beam-Warming"});
+    add_enum(*pl, "Time stepping", "Staggered",
+             "Staggered: the paper's NOC scheme (Nessyahu-Tadmor) on two time-staggered grids; "
+             "its numerical diffusion grows like dx^2/dt, so results change when dt is held far "
+             "below the stable step (Time->Max time step, a coupled 2D neighbour). "
+             "Semi-discrete: the central scheme of Kurganov & Tadmor (2000) on the primary grid "
+             "with Heun's method, whose results converge as dt -> 0",
+             {"Staggered", "Semi-discrete"});
     add_double(*pl, "CFL", d.cfl,
-               "Courant number dt max(|u| + sqrt(beta h)) / dx; the staggered central scheme is "
+               "Courant number dt max(|u| + sqrt(beta h)) / dx; both time steppings are "
                "stable up to 0.5",
                1e-3, 0.5);
     add_enum(*pl, "Earth pressure", "Savage-Hutter",
@@ -72,6 +79,9 @@ DamConfig DamConfig::from_parameters(const Teuchos::ParameterList& pl) {
   DamConfig c;
   c.cells = pl.get<int>("Cells");
   c.scheme = pl.get<std::string>("Scheme") == "Minmod" ? Scheme::Minmod : Scheme::BeamWarming;
+  c.time_stepping = pl.get<std::string>("Time stepping") == "Staggered"
+                        ? TimeStepping::Staggered
+                        : TimeStepping::SemiDiscrete;
   c.cfl = pl.get<double>("CFL");
   const auto ep = pl.get<std::string>("Earth pressure");
   c.earth_pressure = ep == "Savage-Hutter" ? EarthPressure::SavageHutter
@@ -320,6 +330,10 @@ double DamSolver::stable_dt() const {
 }
 
 void DamSolver::step(double dt) {
+  if (cfg_.time_stepping == TimeStepping::SemiDiscrete) {
+    step_semidiscrete(dt);
+    return;
+  }
   const bool on_b = staggered_;
   const int n = static_cast<int>(h_.size());  // cells of the current grid
   const int P = n + 2 * G;                    // padded size
@@ -530,6 +544,134 @@ void DamSolver::step(double dt) {
   dt_max_ = std::max(dt_max_, dt);
 }
 
+// ---------------------------------------------------------------------------------------------
+// Semi-discrete central scheme (Kurganov & Tadmor 2000), DAM->Time stepping = Semi-discrete
+// ---------------------------------------------------------------------------------------------
+// The staggered scheme above averages its piecewise-linear reconstruction onto a grid shifted
+// by dx/2 in every step, whatever dt; where the limiter clips (fronts, kinks, extrema) each
+// average smooths by O(dx^2), so its numerical diffusion grows like dx^2 / dt and a run with
+// dt held far below the stable step diffuses (docs/validation.md: Setup II to 0.1 s, the front
+// at 0.14 m with dt = 4e-4 s and 0.29 m with 1e-6 s). Kurganov & Tadmor average only over the
+// local Riemann fans, of width 2 a dt, and in the limit dt -> 0 obtain the semi-discrete form
+//
+//   d/dt w_j = -(H_{j+1/2} - H_{j-1/2}) / dx + S_j,
+//   H_{j+1/2} = (f(w^-) + f(w^+)) / 2 - a_{j+1/2} (w^+ - w^-) / 2,
+//
+// w^-/+ the reconstructions of cells j and j+1 at the face (slopes as in the staggered scheme:
+// Minmod or Beam-Warming, hu' = u h' in front cells), a the largest local speed |u| +
+// sqrt(beta h) of the two. Its numerical viscosity is O(a dx), independent of dt, so a run
+// converges as dt -> 0. Heun's method (the two-stage SSP Runge-Kutta scheme) integrates it in
+// time: w1 = w + dt L(w), w2 = w1 + dt L(w1), w^{n+1} = (w + w2)/2, stable and positive for
+// a dt / dx <= 1/2. The pressure part of the momentum flux is taken with the cell's own K,
+// -beta_j (P_{j+1/2} - P_{j-1/2}) / dx with P = (h^-^2 + h^+^2)/4 (K fixed inside the cell, as
+// in the staggered scheme), and each stage applies the bounded friction and the rest test of
+// the staggered scheme. A prescribed inflow end is a face with the flux of the inflow state at
+// the stage's time (so h_in u_in dt enters in a step: the mean of the two stages' fluxes);
+// walls, outflow, periodic ends and interfaces use the ghost cells of the primary grid.
+void DamSolver::euler_stage(const std::vector<double>& h0, const std::vector<double>& hu0,
+                            double t, double dt, std::vector<double>& h1,
+                            std::vector<double>& hu1, double& in, double& out) {
+  const int n = n_;
+  const double lam = dt / dx_;
+  auto at = [](int j) { return static_cast<std::size_t>(j + G); };
+  std::vector<double> h(static_cast<std::size_t>(n + 2 * G)), hu(h.size());
+  std::copy(h0.begin(), h0.end(), h.begin() + G);
+  std::copy(hu0.begin(), hu0.end(), hu.begin() + G);
+  fill_ghosts(h, hu, n, false, t);
+  const double dry = cfg_.dry_depth;
+  std::vector<double> u(h.size()), beta(h.size());
+  for (int j = -2; j < n + 2; ++j) u[at(j)] = velocity(h[at(j)], hu[at(j)]);
+  for (int j = -2; j < n + 2; ++j) {
+    const int jm = std::max(j - 1, -2), jp = std::min(j + 1, n + 1);
+    const double ux = wet_ux(u[at(jm)], h[at(jm)] > dry, j - jm, u[at(j)], u[at(jp)],
+                             h[at(jp)] > dry, jp - j, dx_);
+    beta[at(j)] = phys_.g_cos * phys_.K(ux);
+  }
+  // slopes on cells -1 .. n
+  std::vector<double> sh(h.size(), 0.0), shu(h.size(), 0.0);
+  auto limit = [&](double dm, double dp, int j) {
+    if (cfg_.scheme == Scheme::Minmod) return minmod(dm, dp);
+    return u[at(j)] >= 0.0 ? dm : dp;
+  };
+  for (int j = -1; j <= n; ++j) {
+    const auto k = at(j);
+    sh[k] = limit(h[k] - h[k - 1], h[k + 1] - h[k], j);
+    shu[k] = limit(hu[k] - hu[k - 1], hu[k + 1] - hu[k], j);
+    if (h[k] > dry && (h[k - 1] <= dry || h[k + 1] <= dry)) shu[k] = u[k] * sh[k];
+  }
+  // face fluxes at faces f = 0..n (face f between cells f-1 and f, at x0 + f dx):
+  // mass Hm, advective momentum Ha (hu^2/h part with its dissipation), pressure P (h^2/2)
+  std::vector<double> Hm(static_cast<std::size_t>(n + 1)), Ha(Hm.size()), P(Hm.size());
+  for (int f = 0; f <= n; ++f) {
+    const auto L = at(f - 1), R = at(f);
+    const auto fs = static_cast<std::size_t>(f);
+    const DamBoundary* end = f == 0 ? &left_ : f == n ? &right_ : nullptr;
+    if (end && end->type == BoundaryType::Inflow && end->prescribed) {
+      const auto s = end->inflow(t, f == 0 ? x0_ : x1_);
+      Hm[fs] = s[0] * s[1];
+      Ha[fs] = s[0] * s[1] * s[1];
+      P[fs] = 0.5 * s[0] * s[0];
+      continue;
+    }
+    double hl = std::max(0.0, h[L] + 0.5 * sh[L]), hr = std::max(0.0, h[R] - 0.5 * sh[R]);
+    double ql = hu[L] + 0.5 * shu[L], qr = hu[R] - 0.5 * shu[R];
+    if (hl <= dry) hl = 0.0, ql = 0.0;
+    if (hr <= dry) hr = 0.0, qr = 0.0;
+    const double ul = hl > 0.0 ? ql / hl : 0.0, ur = hr > 0.0 ? qr / hr : 0.0;
+    const double a = std::max(std::abs(ul) + std::sqrt(beta[L] * hl),
+                              std::abs(ur) + std::sqrt(beta[R] * hr));
+    Hm[fs] = 0.5 * (ql + qr) - 0.5 * a * (hr - hl);
+    Ha[fs] = 0.5 * (ql * ul + qr * ur) - 0.5 * a * (qr - ql);
+    P[fs] = 0.25 * (hl * hl + hr * hr);
+  }
+  // update, with the bounded friction and the rest test of the staggered scheme
+  const auto K_range = phys_.K_bounds();
+  const double beta_lo = phys_.g_cos * K_range[0], beta_hi = phys_.g_cos * K_range[1];
+  h1.assign(static_cast<std::size_t>(n), 0.0);
+  hu1.assign(h1.size(), 0.0);
+  for (int j = 0; j < n; ++j) {
+    const auto k = at(j);
+    const auto fl = static_cast<std::size_t>(j), fr = static_cast<std::size_t>(j + 1);
+    h1[fl] = h[k] - lam * (Hm[fr] - Hm[fl]);
+    const double A = hu[k] - lam * (Ha[fr] - Ha[fl]) + dt * phys_.g_sin * h[k];
+    const double dP = P[fr] - P[fl];
+    const double fric = dt * phys_.g_cos * phys_.tan_delta * h[k];
+    const double v1 = A - lam * beta_lo * dP, v2 = A - lam * beta_hi * dP;
+    const double vmin = v1 * v2 <= 0.0 ? 0.0 : std::min(std::abs(v1), std::abs(v2));
+    const double q = A - lam * beta[k] * dP;
+    hu1[fl] = vmin <= fric ? 0.0 : std::copysign(std::max(std::abs(q) - fric, 0.0), q);
+  }
+  in = dt * Hm.front();
+  out = dt * Hm.back();
+  fix_positivity(h1, hu1, false);
+  for (std::size_t k = 0; k < h1.size(); ++k)
+    if (h1[k] <= dry) hu1[k] = 0.0;
+}
+
+void DamSolver::step_semidiscrete(double dt) {
+  fixes_new_ = 0;
+  std::vector<double> h1, hu1, h2, hu2;
+  double in1, out1, in2, out2;
+  euler_stage(h_, hu_, t_, dt, h1, hu1, in1, out1);
+  euler_stage(h1, hu1, t_ + dt, dt, h2, hu2, in2, out2);
+  h_new_.assign(h_.size(), 0.0);
+  hu_new_.assign(h_.size(), 0.0);
+  for (std::size_t k = 0; k < h_.size(); ++k) {
+    h_new_[k] = 0.5 * (h_[k] + h2[k]);
+    // The stages never reverse the momentum, so neither does their mean. A cell that both
+    // stages bring to rest (the first within dt from the state at t, the second from rest) has
+    // stopped within the step: hu = 0 exactly, not the Heun mean hu^n / 2 (which would halve a
+    // resting deposit's momentum every step and never reach 0).
+    hu_new_[k] = (hu1[k] == 0.0 && hu2[k] == 0.0) ? 0.0 : 0.5 * (hu_[k] + hu2[k]);
+    if (h_new_[k] <= cfg_.dry_depth) hu_new_[k] = 0.0;
+  }
+  in_new_ = 0.5 * (in1 + in2);
+  out_new_ = 0.5 * (out1 + out2);
+  t_new_ = t_ + dt;
+  dt_min_ = steps_ == 0 ? dt : std::min(dt_min_, dt);
+  dt_max_ = std::max(dt_max_, dt);
+}
+
 // A negative depth (possible at wet/dry fronts with the limiter-free variant, and in rare
 // round-off cases otherwise) is set to zero and its deficit is taken from the nearest wet cells,
 // so h >= 0 holds and mass is conserved to round-off. Each fix is counted in summary.json.
@@ -585,7 +727,7 @@ core::Health DamSolver::check() const {
 void DamSolver::accept() {
   h_.swap(h_new_);
   hu_.swap(hu_new_);
-  staggered_ = !staggered_;
+  if (cfg_.time_stepping == TimeStepping::Staggered) staggered_ = !staggered_;
   t_ = t_new_;
   ++steps_;
   mass_in_ += in_new_;
@@ -738,12 +880,23 @@ void DamSolver::load(const io::Checkpoint& c) {
   positivity_fixes_ = static_cast<long>(c.scalar("dam/positivity_fixes"));
   h_ = c.array("dam/h");
   hu_ = c.array("dam/hu");
+  if (staggered_ && cfg_.time_stepping == TimeStepping::SemiDiscrete) {
+    // a checkpoint of the staggered scheme, continued semi-discretely: project onto the
+    // primary grid (exact averages of the reconstruction, mass conserved)
+    std::vector<double> h, hu;
+    primary(h, hu);
+    h_.swap(h);
+    hu_.swap(hu);
+    staggered_ = false;
+  }
 }
 
 void DamSolver::report(nlohmann::json& s) const {
   s["dam"] = {{"cells", n_},
               {"dx", dx_},
               {"scheme", cfg_.scheme == Scheme::Minmod ? "Minmod" : "Beam-Warming"},
+              {"time_stepping",
+               cfg_.time_stepping == TimeStepping::Staggered ? "Staggered" : "Semi-discrete"},
               {"steps", steps_},
               {"dt_min", dt_min_},
               {"dt_max", dt_max_},

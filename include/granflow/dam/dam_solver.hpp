@@ -31,12 +31,16 @@
 namespace granflow::dam {
 
 enum class Scheme { Minmod, BeamWarming };
+/// Time stepping: the paper's staggered NOC scheme (Nessyahu-Tadmor), or the semi-discrete
+/// central scheme of Kurganov & Tadmor (2000) with Heun's method on the primary grid only.
+enum class TimeStepping { Staggered, SemiDiscrete };
 enum class EarthPressure { SavageHutter, Active, Passive, Isotropic };
 
 /// Numerical parameters of the DAM ("DAM" sublist).
 struct DamConfig {
   int cells = 400;
   Scheme scheme = Scheme::Minmod;
+  TimeStepping time_stepping = TimeStepping::Staggered;
   double cfl = 0.45;
   EarthPressure earth_pressure = EarthPressure::SavageHutter;
   double k_smoothing = 0.1;  ///< [1/s] width of the tanh switch of K at u_x = 0
@@ -159,6 +163,12 @@ class DamSolver final : public core::Stepper {
     return h > cfg_.dry_depth ? hu / h : 0.0;
   }
   void fix_positivity(std::vector<double>& h, std::vector<double>& hu, bool on_b);
+  void step_semidiscrete(double dt);
+  /// One forward-Euler stage w + dt L(w) of the semi-discrete scheme from the primary-grid
+  /// state (h, hu) at time t, with the bounded friction; `in`/`out`: mass through the ends.
+  void euler_stage(const std::vector<double>& h0, const std::vector<double>& hu0, double t,
+                   double dt, std::vector<double>& h1, std::vector<double>& hu1, double& in,
+                   double& out);
 
   DamConfig cfg_;
   DamPhysics phys_;
