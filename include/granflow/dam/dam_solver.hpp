@@ -159,6 +159,9 @@ class DamSolver final : public core::Stepper {
   void fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int n, bool on_b,
                    double t) const;
   bool wall_centred(int j, int n, bool on_b) const;
+  /// +1 / -1 if cell j of a primary grid of n cells touches a right / left Wall, else 0.
+  int wall_side(int j, int n) const;
+  static bool comes_to_rest(double q1, double q2, double fric, int wall);
   double velocity(double h, double hu) const {
     return h > cfg_.dry_depth ? hu / h : 0.0;
   }
