@@ -368,13 +368,13 @@ void DamSolver::step(double dt) {
   fill_ghosts(h, hu, n, on_b, t_);
 
   // --- 2. earth pressure coefficient per cell from the velocity gradient (lagged in the step)
-  std::vector<double> u(h.size()), beta(h.size());
+  std::vector<double> u(h.size()), ux(h.size()), beta(h.size());
   for (int j = -2; j < n + 2; ++j) u[at(j)] = velocity(h[at(j)], hu[at(j)]);
   for (int j = -2; j < n + 2; ++j) {
     const int jm = std::max(j - 1, -2), jp = std::min(j + 1, n + 1);
-    const double ux = wet_ux(u[at(jm)], h[at(jm)] > cfg_.dry_depth, j - jm, u[at(j)], u[at(jp)],
-                             h[at(jp)] > cfg_.dry_depth, jp - j, dx_);
-    beta[at(j)] = phys_.g_cos * phys_.K(ux);
+    ux[at(j)] = wet_ux(u[at(jm)], h[at(jm)] > cfg_.dry_depth, j - jm, u[at(j)], u[at(jp)],
+                       h[at(jp)] > cfg_.dry_depth, jp - j, dx_);
+    beta[at(j)] = phys_.g_cos * phys_.K(ux[at(j)]);
   }
   // Momentum flux hu^2/h + beta h^2/2 of a state with a given beta.
   auto mflux = [&](double hv, double huv, double b) {
@@ -388,7 +388,11 @@ void DamSolver::step(double dt) {
   // K is held fixed inside each cell that an update integrates over: the predictor of old cell
   // j differences the flux of its neighbours with its own beta_j, and the corrector of a new
   // cell between old cells L and R takes both fluxes with the beta of the new cell, from the
-  // velocity difference across it, (u_R - u_L)/dx (a dry side: the wet cell's beta). The
+  // velocity difference across it, (u_R - u_L)/dx, where it agrees in sign with the old cells'
+  // mean central difference (minmod of the two; else K(0)): a grid-scale wiggle of u, of
+  // Beam-Warming or of a creeping deposit, flips the sign of single differences but is no
+  // strain rate, and must not switch K between its Rankine limits (a dry side: the wet
+  // cell's beta). The
   // pressure force on a cell is then beta (h^2/2)_x with the cell's K, and a jump of K between
   // neighbouring cells is no force. (Before, each old cell's flux carried its own beta_j: in a
   // deposit where moving and resting cells alternate, neighbours switched between K_act and
@@ -396,7 +400,8 @@ void DamSolver::step(double dt) {
   // pattern creeping at ~0.1 m/s; docs/numerics.md, "Earth pressure on the grid".)
   auto beta_face = [&](std::size_t L, std::size_t R) {
     const bool wl = h[L] > cfg_.dry_depth, wr = h[R] > cfg_.dry_depth;
-    if (wl && wr) return phys_.g_cos * phys_.K((u[R] - u[L]) / dx_);
+    if (wl && wr)
+      return phys_.g_cos * phys_.K(minmod((u[R] - u[L]) / dx_, 0.5 * (ux[L] + ux[R])));
     return wl ? beta[L] : beta[R];
   };
 
