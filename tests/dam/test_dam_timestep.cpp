@@ -118,7 +118,7 @@ TEST(DamInflow, SeriesInflowMassConvergesAtSecondOrder) {
 // Staggered (the paper's scheme): its averaging onto the shifted grid in every step diffuses by
 // O(dx^2) where the limiter clips, whatever dt, i.e. like dx^2 / dt: the profile does NOT
 // converge as dt -> 0 (measured below and in docs/validation.md: 30 % at dt = stable / 400 in
-// Setup II to 0.1 s; here 0.98 / 0.87 / 0.52 of the mass at 1e-3 / 1e-4 / 1e-5 s, the thin
+// Setup II to 0.1 s; here 0.97 / 0.86 / 0.51 of the mass at 1e-3 / 1e-4 / 1e-5 s, the thin
 // stream's front spreading further with every extra step). Asserted for it what the project
 // asks of every result, that a second dt near the stable step changes it by no more than a
 // stated, measured amount: dt capped at half the stable step moves the profile by < 4e-2
@@ -180,7 +180,7 @@ TEST(DamTimeStep, ProfileAgainstThreeDecadesOfDt) {
 // 4 mm at rest (hu == 0 exactly), and what still moves (the upstream margin of the deposit,
 // thinner than 4 mm, where the at-rest smoothing of the staggered averaging spreads material
 // upslope that the slope cannot hold) below 1e-3 of the deposit's mass (measured 2.2 mm and
-// 5.4e-4). Semi-discrete: single cells in neutral equilibrium (the cell's own K from a central
+// 5.6e-4). Semi-discrete: single cells in neutral equilibrium (the cell's own K from a central
 // velocity difference of 0, gravity = pressure + friction) may creep; |u| < 1e-2 m/s in every
 // cell deeper than 4 mm (measured 2.7e-3 m/s next to the wall).
 TEST(DamDeposit, SetupIIDepositComesToRestWhenTheGateCloses) {
