@@ -729,7 +729,8 @@ void DamSolver::fix_positivity(std::vector<double>& h, std::vector<double>& hu, 
 
 core::Health DamSolver::check() const {
   core::Health hl;
-  const bool on_b = !staggered_;
+  // the tentative state: on the other grid after a staggered step, the primary one otherwise
+  const bool on_b = cfg_.time_stepping == TimeStepping::Staggered && !staggered_;
   const int n = static_cast<int>(h_new_.size());
   for (int j = 0; j < n; ++j) {
     const auto k = static_cast<std::size_t>(j);
