@@ -71,6 +71,18 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
       throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
                                std::to_string(lineno) +
                                ": need finite values, h >= 0 and strictly increasing t");
+    // Like the constant inflow ('Inflow velocity' must be > 0 with a depth > 0): the left end
+    // takes material in, so u < 0 (material leaving through the gate) is refused on every row,
+    // and a row with h > 0 needs u > 0. Between two accepted rows the interpolated u is then
+    // > 0 wherever the interpolated h is > 0.
+    if (u < 0.0 || (h > 0.0 && u <= 0.0)) {
+      std::ostringstream os;
+      os << "parameter '" << ppath << "' = " << file << ": line " << lineno << ": velocity u = "
+         << params::str(u) << " with depth h = " << params::str(h)
+         << ": an inflow needs a velocity into the channel; allowed: u >= 0 on every row and "
+            "u > 0 where h > 0";
+      throw params::InputError(os.str());
+    }
     s.t_.push_back(t);
     s.h_.push_back(h);
     s.u_.push_back(u);

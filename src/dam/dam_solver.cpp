@@ -8,7 +8,10 @@
 //
 // where w'_j, f'_j are undivided slopes (minmod-limited, or Beam-Warming upwind differences) and
 // S = (0, h g sin(zeta) - sgn(u) h g cos(zeta) tan(delta)). The friction part of S is applied as
-// a bounded impulse: it reduces |hu| by at most |hu|, so it opposes motion and never reverses it.
+// a bounded impulse: it reduces |hu| by at most |hu|, so it opposes motion and never reverses it;
+// a cell whose momentum the friction can absorb with an earth pressure between K_act and K_pas
+// comes to rest (step(), "Coming to rest"). K is held fixed inside each cell an update
+// integrates over. A prescribed inflow imposes its flux through the channel end.
 #include "granflow/dam/dam_solver.hpp"
 
 #include "granflow/io/fields.hpp"
@@ -40,8 +43,15 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
              "Beam-Warming (the paper's limiter-free variant for smooth supercritical flow; "
              "oscillates at shocks)",
              {"Minmod", "Beam-Warming"});
+    add_enum(*pl, "Time stepping", "Staggered",
+             "Staggered: the paper's NOC scheme (Nessyahu-Tadmor) on two time-staggered grids; "
+             "its numerical diffusion grows like dx^2/dt, so results change when dt is held far "
+             "below the stable step (Time->Max time step, a coupled 2D neighbour). "
+             "Semi-discrete: the central scheme of Kurganov & Tadmor (2000) on the primary grid "
+             "with Heun's method, whose results converge as dt -> 0",
+             {"Staggered", "Semi-discrete"});
     add_double(*pl, "CFL", d.cfl,
-               "Courant number dt max(|u| + sqrt(beta h)) / dx; the staggered central scheme is "
+               "Courant number dt max(|u| + sqrt(beta h)) / dx; both time steppings are "
                "stable up to 0.5",
                1e-3, 0.5);
     add_enum(*pl, "Earth pressure", to_string(d.earth_pressure),
@@ -69,6 +79,9 @@ DamConfig DamConfig::from_parameters(const Teuchos::ParameterList& pl) {
   DamConfig c;
   c.cells = pl.get<int>("Cells");
   c.scheme = pl.get<std::string>("Scheme") == "Minmod" ? Scheme::Minmod : Scheme::BeamWarming;
+  c.time_stepping = pl.get<std::string>("Time stepping") == "Staggered"
+                        ? TimeStepping::Staggered
+                        : TimeStepping::SemiDiscrete;
   c.cfl = pl.get<double>("CFL");
   const auto ep = pl.get<std::string>("Earth pressure");
   c.earth_pressure = ep == "Savage-Hutter" ? EarthPressure::SavageHutter
@@ -122,9 +135,20 @@ double DamPhysics::K(double u_x) const {
   return 0.5 * (K_act + K_pas) - 0.5 * (K_pas - K_act) * std::tanh(u_x / k_smoothing);
 }
 
+std::array<double, 2> DamPhysics::K_bounds() const {
+  switch (model) {
+    case EarthPressure::Active: return {K_act, K_act};
+    case EarthPressure::Passive: return {K_pas, K_pas};
+    case EarthPressure::Isotropic: return {1.0, 1.0};
+    case EarthPressure::SavageHutter: break;
+  }
+  return {std::min(K_act, K_pas), std::max(K_act, K_pas)};
+}
+
 DamBoundary DamBoundary::from(const core::BoundarySpec& spec) {
   DamBoundary b;
   b.type = spec.type;
+  b.prescribed = spec.type == BoundaryType::Inflow;
   if (spec.type == BoundaryType::Inflow) {
     const core::InflowSeries s = spec.inflow;
     b.inflow = [s](double t, double) {
@@ -191,6 +215,27 @@ double DamSolver::mass() const {
   return m * dx_;
 }
 
+// The rest test of a cell (see step(), "Coming to rest"): q1, q2 are its momentum after the
+// step without friction for the two limits of K, fric the friction impulse bound. Free cell:
+// at rest if some q in [q1, q2] has |q| <= fric. A cell against a rigid wall (wall = +1 on the
+// right, -1 on the left) also has the wall's reaction, which can push it back by any amount but
+// never pull it: at rest if some q in [q1, q2] lies in [-fric, inf) (right wall) or
+// (-inf, fric] (left). Without it the cell next to the wall of a deposit, whose mirrored ghost
+// gives it only half the pressure gradient that holds the deposit, kept u ~ 1e-3 - 4e-3 m/s
+// indefinitely (Setup II after the gate closed).
+bool DamSolver::comes_to_rest(double q1, double q2, double fric, int wall) {
+  const double lo = std::min(q1, q2), hi = std::max(q1, q2);
+  if (wall > 0) return hi >= -fric;
+  if (wall < 0) return lo <= fric;
+  return lo <= fric && hi >= -fric;
+}
+
+int DamSolver::wall_side(int j, int n) const {
+  if (j == n - 1 && right_.type == BoundaryType::Wall) return 1;
+  if (j == 0 && left_.type == BoundaryType::Wall) return -1;
+  return 0;
+}
+
 bool DamSolver::wall_centred(int j, int n, bool on_b) const {
   if (!on_b) return false;
   return (j == 0 && left_.type == BoundaryType::Wall) ||
@@ -208,11 +253,27 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
     hu[at(dst)] = huv;
   };
   const int off = on_b ? 1 : 0;  // mirror about a centre skips the centre cell
+  // Inflow ghosts. An interface's ghosts take the neighbour's state where they lie. A
+  // prescribed state (h_in, u_in) holds at the end x0 itself, a cell face of the primary grid,
+  // so there the ghosts are the reflection 2 w_in - w_end that puts w_in on the face: the end
+  // cell's slope then sees the profile's real gradient (a ghost equal to w_in, i.e. w_in half
+  // a cell upstream of x0, halved the slope of an accelerating inflow and made an O(dx) error
+  // of 1.2e-3 in the Bernoulli constant of the steady supercritical test at N = 200, 3.6e-4
+  // with the reflection). Where that would leave a ghost shallower than h_in / 2 (material
+  // piled up at the end, or a dry inflow) the ghosts are w_in. The ghosts only shape slopes and
+  // the predictor: what enters is the end flux of step().
+  auto set_inflow = [&](int dst, int end, const std::array<double, 2>& s, bool prescribed) {
+    const double hr = 2.0 * s[0] - h[at(end)], hur = 2.0 * s[0] * s[1] - hu[at(end)];
+    if (prescribed && !on_b && hr >= 0.5 * s[0] && s[0] > cfg_.dry_depth)
+      set(dst, hr, hur);
+    else
+      set(dst, s[0], s[0] * s[1]);
+  };
   switch (left_.type) {
     case BoundaryType::Inflow:
       for (int g = -2; g <= -1; ++g) {
         const auto s = left_.inflow(t, x0_ + (g + (on_b ? 0.0 : 0.5)) * dx_);
-        set(g, s[0], s[0] * s[1]);
+        set_inflow(g, 0, s, left_.prescribed);
       }
       break;
     case BoundaryType::Outflow:
@@ -230,7 +291,7 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
     case BoundaryType::Inflow:
       for (int g = 0; g <= 1; ++g) {
         const auto s = right_.inflow(t, x0_ + (n + g + (on_b ? 0.0 : 0.5)) * dx_);
-        set(n + g, s[0], s[0] * s[1]);
+        set_inflow(n + g, n - 1, s, right_.prescribed);
       }
       break;
     case BoundaryType::Outflow:
@@ -290,6 +351,10 @@ double DamSolver::stable_dt() const {
 }
 
 void DamSolver::step(double dt) {
+  if (cfg_.time_stepping == TimeStepping::SemiDiscrete) {
+    step_semidiscrete(dt);
+    return;
+  }
   const bool on_b = staggered_;
   const int n = static_cast<int>(h_.size());  // cells of the current grid
   const int P = n + 2 * G;                    // padded size
@@ -303,18 +368,41 @@ void DamSolver::step(double dt) {
   fill_ghosts(h, hu, n, on_b, t_);
 
   // --- 2. earth pressure coefficient per cell from the velocity gradient (lagged in the step)
-  std::vector<double> u(h.size()), beta(h.size());
+  std::vector<double> u(h.size()), ux(h.size()), beta(h.size());
   for (int j = -2; j < n + 2; ++j) u[at(j)] = velocity(h[at(j)], hu[at(j)]);
   for (int j = -2; j < n + 2; ++j) {
     const int jm = std::max(j - 1, -2), jp = std::min(j + 1, n + 1);
-    const double ux = wet_ux(u[at(jm)], h[at(jm)] > cfg_.dry_depth, j - jm, u[at(j)], u[at(jp)],
-                             h[at(jp)] > cfg_.dry_depth, jp - j, dx_);
-    beta[at(j)] = phys_.g_cos * phys_.K(ux);
+    ux[at(j)] = wet_ux(u[at(jm)], h[at(jm)] > cfg_.dry_depth, j - jm, u[at(j)], u[at(jp)],
+                       h[at(jp)] > cfg_.dry_depth, jp - j, dx_);
+    beta[at(j)] = phys_.g_cos * phys_.K(ux[at(j)]);
   }
-  auto flux = [&](int j, double hv, double huv, double& f0, double& f1) {
+  // Momentum flux hu^2/h + beta h^2/2 of a state with a given beta.
+  auto mflux = [&](double hv, double huv, double b) {
     const double uv = velocity(hv, huv);
+    return huv * uv + 0.5 * b * hv * hv;
+  };
+  auto flux = [&](int j, double hv, double huv, double& f0, double& f1) {
     f0 = huv;
-    f1 = huv * uv + 0.5 * beta[at(j)] * hv * hv;
+    f1 = mflux(hv, huv, beta[at(j)]);
+  };
+  // K is held fixed inside each cell that an update integrates over: the predictor of old cell
+  // j differences the flux of its neighbours with its own beta_j, and the corrector of a new
+  // cell between old cells L and R takes both fluxes with the beta of the new cell, from the
+  // velocity difference across it, (u_R - u_L)/dx, where it agrees in sign with the old cells'
+  // mean central difference (minmod of the two; else K(0)): a grid-scale wiggle of u, of
+  // Beam-Warming or of a creeping deposit, flips the sign of single differences but is no
+  // strain rate, and must not switch K between its Rankine limits (a dry side: the wet
+  // cell's beta). The
+  // pressure force on a cell is then beta (h^2/2)_x with the cell's K, and a jump of K between
+  // neighbouring cells is no force. (Before, each old cell's flux carried its own beta_j: in a
+  // deposit where moving and resting cells alternate, neighbours switched between K_act and
+  // K_pas, and (beta_p - beta_a) h^2 / (2 dx) was a force ~4x the friction that kept the
+  // pattern creeping at ~0.1 m/s; docs/numerics.md, "Earth pressure on the grid".)
+  auto beta_face = [&](std::size_t L, std::size_t R) {
+    const bool wl = h[L] > cfg_.dry_depth, wr = h[R] > cfg_.dry_depth;
+    if (wl && wr)
+      return phys_.g_cos * phys_.K(minmod((u[R] - u[L]) / dx_, 0.5 * (ux[L] + ux[R])));
+    return wl ? beta[L] : beta[R];
   };
 
   // --- 3. slopes of w and f on cells -1 .. n ------------------------------------------------
@@ -322,17 +410,30 @@ void DamSolver::step(double dt) {
   for (int j = -2; j < n + 2; ++j) flux(j, h[at(j)], hu[at(j)], f0[at(j)], f1[at(j)]);
   std::vector<double> sh(h.size(), 0.0), shu(h.size(), 0.0), sf0(h.size(), 0.0),
       sf1(h.size(), 0.0);
-  auto slope = [&](const std::vector<double>& v, int j) {
-    const double dm = v[at(j)] - v[at(j - 1)], dp = v[at(j + 1)] - v[at(j)];
+  auto limit = [&](double dm, double dp, int j) {
     if (wall_centred(j, n, on_b)) return 0.5 * (dm + dp);  // symmetric about the wall
     if (cfg_.scheme == Scheme::Minmod) return minmod(dm, dp);
     return u[at(j)] >= 0.0 ? dm : dp;  // Beam-Warming: one-sided upwind difference
   };
+  auto slope = [&](const std::vector<double>& v, int j) {
+    return limit(v[at(j)] - v[at(j - 1)], v[at(j + 1)] - v[at(j)], j);
+  };
   for (int j = -1; j <= n; ++j) {
-    sh[at(j)] = slope(h, j);
-    shu[at(j)] = slope(hu, j);
-    sf0[at(j)] = slope(f0, j);
-    sf1[at(j)] = slope(f1, j);
+    const auto k = at(j);
+    sh[k] = slope(h, j);
+    shu[k] = slope(hu, j);
+    // A wet cell next to a dry one (a front): the momentum slope follows the depth slope,
+    // hu' = u h', i.e. the velocity is constant across the front cell. Limited separately,
+    // h' and hu' of the front cell differ (the minmod of hu picks the jump to the dry cell
+    // where that of h does not), and the average of the two reconstructions over the new
+    // front cell then carried a velocity of its own: the tip of a dam break on a dry bed ran
+    // at 3.6-4.5 m/s where the Ritter front speed is 2.1 m/s + s t (bound with K(0): 4.27).
+    if (h[k] > cfg_.dry_depth && (h[k - 1] <= cfg_.dry_depth || h[k + 1] <= cfg_.dry_depth))
+      shu[k] = u[k] * sh[k];
+    sf0[k] = slope(f0, j);
+    // neighbours' momentum fluxes with this cell's beta (K fixed inside the cell, see above)
+    sf1[k] = limit(f1[k] - mflux(h[k - 1], hu[k - 1], beta[k]),
+                   mflux(h[k + 1], hu[k + 1], beta[k]) - f1[k], j);
   }
 
   // --- 4. predictor to t + dt/2 on the interior cells; ghosts from the boundary conditions --
@@ -346,10 +447,35 @@ void DamSolver::step(double dt) {
     hum[k] = (wall_centred(j, n, on_b) || hm[k] <= cfg_.dry_depth) ? 0.0 : q;
   }
   fill_ghosts(hm, hum, n, on_b, t_ + 0.5 * dt);
-  std::vector<double> g0(h.size()), g1(h.size());  // fluxes at t + dt/2
-  for (int j = -1; j <= n; ++j) flux(j, hm[at(j)], hum[at(j)], g0[at(j)], g1[at(j)]);
+  std::vector<double> g0(h.size());  // mass fluxes at t + dt/2 (momentum: with the new cell's K)
+  for (int j = -1; j <= n; ++j) g0[at(j)] = hum[at(j)];
+  auto g1 = [&](std::size_t k, double b) { return mflux(hm[k], hum[k], b); };
 
-  // --- 5. corrector onto the other grid ------------------------------------------------------
+  // --- 5. fluxes through the channel ends at prescribed inflows ------------------------------
+  // A prescribed inflow end is a cell face of both grids: the end cell of the staggered grid is
+  // the half cell between the end and the first primary centre, its value the average over
+  // that half cell (so the mass of a staggered state, end cells weighted 1/2, is the mass in the
+  // channel), and all that enters through the end in a step is dt F, F the flux of the inflow
+  // state at t + dt/2 (midpoint rule in time): h_in u_in dt whatever dt. Before, the full
+  // staggered end cell straddled the end with its outer half in the ghost, reset to the inflow
+  // state every step, and dx (h_in - h_0)/4 of it was booked as inflow per step whatever dt
+  // (3.2e-4 m^2 in 100 steps of 1e-7 s where h_in u_in t is 2.2e-7 m^2; docs/validation.md).
+  // beta: the K of the new end cell (bc below).
+  // An interface to a neighbouring subdomain keeps the overlapping form: its ghosts are the
+  // neighbour's state where they lie, the staggered end cell straddles the interface, and on
+  // matching grids the split channel tends to the single one as dt -> 0 (the transfers of the
+  // two sides agree to 5e-4 at CFL 0.45, 7e-7 at a hundredth of it; docs/validation.md).
+  const bool half_left = left_.type == BoundaryType::Inflow && left_.prescribed;
+  const bool half_right = right_.type == BoundaryType::Inflow && right_.prescribed;
+  auto end_flux = [&](const DamBoundary& b, double x_end, double bc) -> std::array<double, 2> {
+    const auto s = b.inflow(t_ + 0.5 * dt, x_end);
+    return {s[0] * s[1], s[0] * s[1] * s[1] + 0.5 * bc * s[0] * s[0]};
+  };
+  std::array<double, 2> F_left{0.0, 0.0}, F_right{0.0, 0.0};
+  const auto K_range = phys_.K_bounds();
+  const double beta_lo = phys_.g_cos * K_range[0], beta_hi = phys_.g_cos * K_range[1];
+
+  // --- 6. corrector onto the other grid ------------------------------------------------------
   // primary -> staggered: new cell j (j = 0..n) sits between old cells j-1 and j;
   // staggered -> primary: new cell j (j = 0..n-2) sits between old cells j and j+1.
   const int nn = on_b ? n - 1 : n + 1;
@@ -358,20 +484,68 @@ void DamSolver::step(double dt) {
   hu_new_.assign(static_cast<std::size_t>(nn), 0.0);
   for (int j = 0; j < nn; ++j) {
     const auto L = at(j + shift), R = at(j + shift + 1);
-    const double hn = 0.5 * (h[L] + h[R]) + 0.125 * (sh[L] - sh[R]) - lam * (g0[R] - g0[L]);
-    double q = 0.5 * (hu[L] + hu[R]) + 0.125 * (shu[L] - shu[R]) - lam * (g1[R] - g1[L]);
-    const double hmid = 0.5 * (hm[L] + hm[R]);
+    double hn, q, hmid;
+    bool held = false;
+    const double bc = beta_face(L, R);  // K of the new cell
+    if (half_left && j == 0) F_left = end_flux(left_, x0_, bc);
+    if (half_right && j == nn - 1) F_right = end_flux(right_, x1_, bc);
+    if (!on_b && j == 0 && half_left) {
+      // half cell [x0, x0 + dx/2]: the left half of old cell 0's reconstruction, the end flux
+      // in, the flux at old cell 0's centre out (widths dx/2: factor 2 lam)
+      hn = h[R] - 0.25 * sh[R] + 2.0 * lam * (F_left[0] - g0[R]);
+      q = hu[R] - 0.25 * shu[R] + 2.0 * lam * (F_left[1] - g1(R, bc));
+      hmid = hm[R] - 0.25 * sh[R];  // source at the half cell's centre x0 + dx/4
+    } else if (!on_b && j == nn - 1 && half_right) {
+      hn = h[L] + 0.25 * sh[L] + 2.0 * lam * (g0[L] - F_right[0]);
+      q = hu[L] + 0.25 * shu[L] + 2.0 * lam * (g1(L, bc) - F_right[1]);
+      hmid = hm[L] + 0.25 * sh[L];
+    } else if (on_b && j == 0 && half_left) {
+      // old cell 0 is the half cell (its average counts as it is); old cell 1 gives its left
+      // half; fluxes: the end flux in at x0, old cell 1's centre flux out
+      hn = 0.5 * h[L] + 0.5 * (h[R] - 0.25 * sh[R]) - lam * (g0[R] - F_left[0]);
+      q = 0.5 * hu[L] + 0.5 * (hu[R] - 0.25 * shu[R]) - lam * (g1(R, bc) - F_left[1]);
+      hmid = 0.5 * hm[L] + 0.5 * (hm[R] - 0.25 * sh[R]);
+    } else if (on_b && j == nn - 1 && half_right) {
+      hn = 0.5 * (h[L] + 0.25 * sh[L]) + 0.5 * h[R] - lam * (F_right[0] - g0[L]);
+      q = 0.5 * (hu[L] + 0.25 * shu[L]) + 0.5 * hu[R] - lam * (F_right[1] - g1(L, bc));
+      hmid = 0.5 * (hm[L] + 0.25 * sh[L]) + 0.5 * hm[R];
+    } else {
+      hn = 0.5 * (h[L] + h[R]) + 0.125 * (sh[L] - sh[R]) - lam * (g0[R] - g0[L]);
+      q = 0.5 * (hu[L] + hu[R]) + 0.125 * (shu[L] - shu[R]) - lam * (g1(R, bc) - g1(L, bc));
+      hmid = 0.5 * (hm[L] + hm[R]);
+      // Coming to rest. The momentum after the step without friction is
+      //   q*(beta) = A - lam beta dP,  A = inertia, advection and gravity,
+      //   dP = (h_R^2 - h_L^2)/2 of the predicted depths (the pressure of the new cell).
+      // Material at rest is statically indeterminate: its earth pressure can take any K
+      // between K_act and K_pas (the two Rankine limits of the Mohr-Coulomb material). The cell
+      // is at rest after the step if some such K lets the friction impulse absorb q*:
+      //   min over beta in [beta_act, beta_pas] of |q*(beta)| <= dt g cos(zeta) tan(delta) h,
+      // which for a layer at rest is |g sin(zeta) h - g cos(zeta) K h h_x| <= g cos(zeta)
+      // tan(delta) h for some admissible K. Otherwise it moves with the K of its strain rate
+      // (bc) and the friction reduces |hu| by its bound. With one K (Active, Passive,
+      // Isotropic) the test is the usual one.
+      const double A = 0.5 * (hu[L] + hu[R]) + 0.125 * (shu[L] - shu[R]) -
+                       lam * (g1(R, 0.0) - g1(L, 0.0)) + dt * phys_.g_sin * hmid;
+      const double dP = 0.5 * (hm[R] * hm[R] - hm[L] * hm[L]);
+      held = comes_to_rest(A - lam * beta_lo * dP, A - lam * beta_hi * dP,
+                           dt * phys_.g_cos * phys_.tan_delta * hmid,
+                           on_b ? wall_side(j, nn) : 0);
+    }
     q += dt * phys_.g_sin * hmid;
     const double fric = dt * phys_.g_cos * phys_.tan_delta * hmid;
-    q = std::copysign(std::max(std::abs(q) - fric, 0.0), q);
+    q = held ? 0.0 : std::copysign(std::max(std::abs(q) - fric, 0.0), q);
     h_new_[static_cast<std::size_t>(j)] = hn;
     hu_new_[static_cast<std::size_t>(j)] = wall_centred(j, nn, !on_b) ? 0.0 : q;
   }
 
-  // --- 6. what crossed the channel ends in this step (exact, from the update above) ---------
+  // --- 7. what crossed the channel ends in this step (exact, from the update above) ---------
   // Summing the corrector over the new grid (end cells of a staggered grid weighted 1/2)
   // telescopes to old mass + the boundary terms below; they are recorded so that the mass
-  // ledger closes to round-off (docs/numerics.md, "mass ledger").
+  // ledger closes to round-off (docs/numerics.md, "mass ledger"). At a prescribed inflow the
+  // term is dt F exactly. At Outflow, Wall and Periodic ends the ghosts copy or mirror the
+  // interior, so the slope and depth terms below vanish or cancel and what is booked is a flux
+  // times dt; at an interface they are the overlap's half-cell terms, which the neighbour books
+  // with the opposite sign to within the mismatch the coupled model reports.
   double in_left, in_right;
   if (!on_b) {
     const auto a = at(-1), b = at(0), c = at(n - 1), d = at(n);
@@ -381,14 +555,144 @@ void DamSolver::step(double dt) {
     in_left = dx_ * sh[at(0)] / 8.0 + dt * g0[at(0)];
     in_right = -dx_ * sh[at(n - 1)] / 8.0 - dt * g0[at(n - 1)];
   }
+  if (half_left) in_left = dt * F_left[0];
+  if (half_right) in_right = -dt * F_right[0];
   in_new_ = in_left;
   out_new_ = -in_right;
 
-  // --- 7. positivity and dry cells ------------------------------------------------------------
+  // --- 8. positivity and dry cells ------------------------------------------------------------
   fixes_new_ = 0;
   fix_positivity(h_new_, hu_new_, !on_b);
   for (std::size_t k = 0; k < h_new_.size(); ++k)
     if (h_new_[k] <= cfg_.dry_depth) hu_new_[k] = 0.0;
+  t_new_ = t_ + dt;
+  dt_min_ = steps_ == 0 ? dt : std::min(dt_min_, dt);
+  dt_max_ = std::max(dt_max_, dt);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Semi-discrete central scheme (Kurganov & Tadmor 2000), DAM->Time stepping = Semi-discrete
+// ---------------------------------------------------------------------------------------------
+// The staggered scheme above averages its piecewise-linear reconstruction onto a grid shifted
+// by dx/2 in every step, whatever dt; where the limiter clips (fronts, kinks, extrema) each
+// average smooths by O(dx^2), so its numerical diffusion grows like dx^2 / dt and a run with
+// dt held far below the stable step diffuses (docs/validation.md: Setup II to 0.1 s, the front
+// at 0.14 m with dt = 4e-4 s and 0.29 m with 1e-6 s). Kurganov & Tadmor average only over the
+// local Riemann fans, of width 2 a dt, and in the limit dt -> 0 obtain the semi-discrete form
+//
+//   d/dt w_j = -(H_{j+1/2} - H_{j-1/2}) / dx + S_j,
+//   H_{j+1/2} = (f(w^-) + f(w^+)) / 2 - a_{j+1/2} (w^+ - w^-) / 2,
+//
+// w^-/+ the reconstructions of cells j and j+1 at the face (slopes as in the staggered scheme:
+// Minmod or Beam-Warming, hu' = u h' in front cells), a the largest local speed |u| +
+// sqrt(beta h) of the two. Its numerical viscosity is O(a dx), independent of dt, so a run
+// converges as dt -> 0. Heun's method (the two-stage SSP Runge-Kutta scheme) integrates it in
+// time: w1 = w + dt L(w), w2 = w1 + dt L(w1), w^{n+1} = (w + w2)/2, stable and positive for
+// a dt / dx <= 1/2. The pressure part of the momentum flux is taken with the cell's own K,
+// -beta_j (P_{j+1/2} - P_{j-1/2}) / dx with P = (h^-^2 + h^+^2)/4 (K fixed inside the cell, as
+// in the staggered scheme), and each stage applies the bounded friction and the rest test of
+// the staggered scheme. A prescribed inflow end is a face with the flux of the inflow state at
+// the stage's time (so h_in u_in dt enters in a step: the mean of the two stages' fluxes);
+// walls, outflow, periodic ends and interfaces use the ghost cells of the primary grid.
+void DamSolver::euler_stage(const std::vector<double>& h0, const std::vector<double>& hu0,
+                            double t, double dt, std::vector<double>& h1,
+                            std::vector<double>& hu1, double& in, double& out) {
+  const int n = n_;
+  const double lam = dt / dx_;
+  auto at = [](int j) { return static_cast<std::size_t>(j + G); };
+  std::vector<double> h(static_cast<std::size_t>(n + 2 * G)), hu(h.size());
+  std::copy(h0.begin(), h0.end(), h.begin() + G);
+  std::copy(hu0.begin(), hu0.end(), hu.begin() + G);
+  fill_ghosts(h, hu, n, false, t);
+  const double dry = cfg_.dry_depth;
+  std::vector<double> u(h.size()), beta(h.size());
+  for (int j = -2; j < n + 2; ++j) u[at(j)] = velocity(h[at(j)], hu[at(j)]);
+  for (int j = -2; j < n + 2; ++j) {
+    const int jm = std::max(j - 1, -2), jp = std::min(j + 1, n + 1);
+    const double ux = wet_ux(u[at(jm)], h[at(jm)] > dry, j - jm, u[at(j)], u[at(jp)],
+                             h[at(jp)] > dry, jp - j, dx_);
+    beta[at(j)] = phys_.g_cos * phys_.K(ux);
+  }
+  // slopes on cells -1 .. n
+  std::vector<double> sh(h.size(), 0.0), shu(h.size(), 0.0);
+  auto limit = [&](double dm, double dp, int j) {
+    if (cfg_.scheme == Scheme::Minmod) return minmod(dm, dp);
+    return u[at(j)] >= 0.0 ? dm : dp;
+  };
+  for (int j = -1; j <= n; ++j) {
+    const auto k = at(j);
+    sh[k] = limit(h[k] - h[k - 1], h[k + 1] - h[k], j);
+    shu[k] = limit(hu[k] - hu[k - 1], hu[k + 1] - hu[k], j);
+    if (h[k] > dry && (h[k - 1] <= dry || h[k + 1] <= dry)) shu[k] = u[k] * sh[k];
+  }
+  // face fluxes at faces f = 0..n (face f between cells f-1 and f, at x0 + f dx):
+  // mass Hm, advective momentum Ha (hu^2/h part with its dissipation), pressure P (h^2/2)
+  std::vector<double> Hm(static_cast<std::size_t>(n + 1)), Ha(Hm.size()), P(Hm.size());
+  for (int f = 0; f <= n; ++f) {
+    const auto L = at(f - 1), R = at(f);
+    const auto fs = static_cast<std::size_t>(f);
+    const DamBoundary* end = f == 0 ? &left_ : f == n ? &right_ : nullptr;
+    if (end && end->type == BoundaryType::Inflow && end->prescribed) {
+      const auto s = end->inflow(t, f == 0 ? x0_ : x1_);
+      Hm[fs] = s[0] * s[1];
+      Ha[fs] = s[0] * s[1] * s[1];
+      P[fs] = 0.5 * s[0] * s[0];
+      continue;
+    }
+    double hl = std::max(0.0, h[L] + 0.5 * sh[L]), hr = std::max(0.0, h[R] - 0.5 * sh[R]);
+    double ql = hu[L] + 0.5 * shu[L], qr = hu[R] - 0.5 * shu[R];
+    if (hl <= dry) hl = 0.0, ql = 0.0;
+    if (hr <= dry) hr = 0.0, qr = 0.0;
+    const double ul = hl > 0.0 ? ql / hl : 0.0, ur = hr > 0.0 ? qr / hr : 0.0;
+    const double a = std::max(std::abs(ul) + std::sqrt(beta[L] * hl),
+                              std::abs(ur) + std::sqrt(beta[R] * hr));
+    Hm[fs] = 0.5 * (ql + qr) - 0.5 * a * (hr - hl);
+    Ha[fs] = 0.5 * (ql * ul + qr * ur) - 0.5 * a * (qr - ql);
+    P[fs] = 0.25 * (hl * hl + hr * hr);
+  }
+  // update, with the bounded friction and the rest test of the staggered scheme
+  const auto K_range = phys_.K_bounds();
+  const double beta_lo = phys_.g_cos * K_range[0], beta_hi = phys_.g_cos * K_range[1];
+  h1.assign(static_cast<std::size_t>(n), 0.0);
+  hu1.assign(h1.size(), 0.0);
+  for (int j = 0; j < n; ++j) {
+    const auto k = at(j);
+    const auto fl = static_cast<std::size_t>(j), fr = static_cast<std::size_t>(j + 1);
+    h1[fl] = h[k] - lam * (Hm[fr] - Hm[fl]);
+    const double A = hu[k] - lam * (Ha[fr] - Ha[fl]) + dt * phys_.g_sin * h[k];
+    const double dP = P[fr] - P[fl];
+    const double fric = dt * phys_.g_cos * phys_.tan_delta * h[k];
+    const double q = A - lam * beta[k] * dP;
+    hu1[fl] = comes_to_rest(A - lam * beta_lo * dP, A - lam * beta_hi * dP, fric, wall_side(j, n))
+                  ? 0.0
+                  : std::copysign(std::max(std::abs(q) - fric, 0.0), q);
+  }
+  in = dt * Hm.front();
+  out = dt * Hm.back();
+  fix_positivity(h1, hu1, false);
+  for (std::size_t k = 0; k < h1.size(); ++k)
+    if (h1[k] <= dry) hu1[k] = 0.0;
+}
+
+void DamSolver::step_semidiscrete(double dt) {
+  fixes_new_ = 0;
+  std::vector<double> h1, hu1, h2, hu2;
+  double in1, out1, in2, out2;
+  euler_stage(h_, hu_, t_, dt, h1, hu1, in1, out1);
+  euler_stage(h1, hu1, t_ + dt, dt, h2, hu2, in2, out2);
+  h_new_.assign(h_.size(), 0.0);
+  hu_new_.assign(h_.size(), 0.0);
+  for (std::size_t k = 0; k < h_.size(); ++k) {
+    h_new_[k] = 0.5 * (h_[k] + h2[k]);
+    // The stages never reverse the momentum, so neither does their mean. A cell that both
+    // stages bring to rest (the first within dt from the state at t, the second from rest) has
+    // stopped within the step: hu = 0 exactly, not the Heun mean hu^n / 2 (which would halve a
+    // resting deposit's momentum every step and never reach 0).
+    hu_new_[k] = (hu1[k] == 0.0 && hu2[k] == 0.0) ? 0.0 : 0.5 * (hu_[k] + hu2[k]);
+    if (h_new_[k] <= cfg_.dry_depth) hu_new_[k] = 0.0;
+  }
+  in_new_ = 0.5 * (in1 + in2);
+  out_new_ = 0.5 * (out1 + out2);
   t_new_ = t_ + dt;
   dt_min_ = steps_ == 0 ? dt : std::min(dt_min_, dt);
   dt_max_ = std::max(dt_max_, dt);
@@ -425,7 +729,8 @@ void DamSolver::fix_positivity(std::vector<double>& h, std::vector<double>& hu, 
 
 core::Health DamSolver::check() const {
   core::Health hl;
-  const bool on_b = !staggered_;
+  // the tentative state: on the other grid after a staggered step, the primary one otherwise
+  const bool on_b = cfg_.time_stepping == TimeStepping::Staggered && !staggered_;
   const int n = static_cast<int>(h_new_.size());
   for (int j = 0; j < n; ++j) {
     const auto k = static_cast<std::size_t>(j);
@@ -449,7 +754,7 @@ core::Health DamSolver::check() const {
 void DamSolver::accept() {
   h_.swap(h_new_);
   hu_.swap(hu_new_);
-  staggered_ = !staggered_;
+  if (cfg_.time_stepping == TimeStepping::Staggered) staggered_ = !staggered_;
   t_ = t_new_;
   ++steps_;
   mass_in_ += in_new_;
@@ -478,13 +783,21 @@ void DamSolver::primary(std::vector<double>& h, std::vector<double>& hu) const {
     const double dm = v[at(j)] - v[at(j - 1)], dp = v[at(j + 1)] - v[at(j)];
     return wall_centred(j, n, true) ? 0.5 * (dm + dp) : minmod(dm, dp);
   };
+  // The end cell at an Inflow end is the half cell inside the channel (see step()): its value
+  // is its average, whatever the reconstruction's slope, so its slope counts as 0 here.
+  const bool half_left = left_.type == BoundaryType::Inflow && left_.prescribed;
+  const bool half_right = right_.type == BoundaryType::Inflow && right_.prescribed;
+  auto slope = [&](const std::vector<double>& v, int j) {
+    if ((j == 0 && half_left) || (j == n - 1 && half_right)) return 0.0;
+    return sl(v, j);
+  };
   h.assign(static_cast<std::size_t>(n_), 0.0);
   hu.assign(static_cast<std::size_t>(n_), 0.0);
   for (int j = 0; j < n_; ++j) {
     h[static_cast<std::size_t>(j)] =
-        0.5 * (ph[at(j)] + ph[at(j + 1)]) + 0.125 * (sl(ph, j) - sl(ph, j + 1));
+        0.5 * (ph[at(j)] + ph[at(j + 1)]) + 0.125 * (slope(ph, j) - slope(ph, j + 1));
     hu[static_cast<std::size_t>(j)] =
-        0.5 * (phu[at(j)] + phu[at(j + 1)]) + 0.125 * (sl(phu, j) - sl(phu, j + 1));
+        0.5 * (phu[at(j)] + phu[at(j + 1)]) + 0.125 * (slope(phu, j) - slope(phu, j + 1));
   }
 }
 
@@ -594,12 +907,23 @@ void DamSolver::load(const io::Checkpoint& c) {
   positivity_fixes_ = static_cast<long>(c.scalar("dam/positivity_fixes"));
   h_ = c.array("dam/h");
   hu_ = c.array("dam/hu");
+  if (staggered_ && cfg_.time_stepping == TimeStepping::SemiDiscrete) {
+    // a checkpoint of the staggered scheme, continued semi-discretely: project onto the
+    // primary grid (exact averages of the reconstruction, mass conserved)
+    std::vector<double> h, hu;
+    primary(h, hu);
+    h_.swap(h);
+    hu_.swap(hu);
+    staggered_ = false;
+  }
 }
 
 void DamSolver::report(nlohmann::json& s) const {
   s["dam"] = {{"cells", n_},
               {"dx", dx_},
               {"scheme", cfg_.scheme == Scheme::Minmod ? "Minmod" : "Beam-Warming"},
+              {"time_stepping",
+               cfg_.time_stepping == TimeStepping::Staggered ? "Staggered" : "Semi-discrete"},
               {"steps", steps_},
               {"dt_min", dt_min_},
               {"dt_max", dt_max_},

@@ -35,6 +35,9 @@ granflow_cli_test(one_sided_periodic 2 "Right boundary->Type' = Outflow.*periodi
 granflow_cli_test(missing_series_file 2 "Inflow series file' = .*no_such_series.csv.*cannot open"
                   ${_cli}/bad_missing_series.xml)
 granflow_cli_test(unknown_model 2 "Model' = .Navier.: unknown model; allowed: DAM, N-DAM, Coupled" ${_cli}/bad_unknown_model.xml)
+granflow_cli_test(series_negative_velocity 2
+                  "Inflow series file' = .*bad_series_negative_u.csv: line 3: velocity u = -0.2.*allowed: u >= 0"
+                  ${_cli}/bad_series_negative_u.xml)
 granflow_cli_test(ic_parameter_of_other_type 2 "Initial condition->Left depth.*not used by initial condition Type 'Uniform'"
                   ${_cli}/bad_ic_mismatch.xml)
 granflow_cli_test(dam_position_outside 2 "Position' = 2.*outside the channel.*\\[0, 1\\]"

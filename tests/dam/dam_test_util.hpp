@@ -40,14 +40,22 @@ inline DamPhysics incline(double zeta_deg, double delta_deg, double phi_deg, Ear
 /// Net driving acceleration s = g cos(zeta) (tan(zeta) - tan(delta)) for downslope motion.
 inline double net_acceleration(const DamPhysics& p) { return p.g_sin - p.g_cos * p.tan_delta; }
 
-inline DamConfig config(int cells, Scheme scheme, EarthPressure ep, double cfl = 0.45) {
+inline DamConfig config(int cells, Scheme scheme, EarthPressure ep, double cfl = 0.45,
+                        TimeStepping ts = TimeStepping::Staggered) {
   DamConfig c;
   c.cells = cells;
   c.scheme = scheme;
   c.cfl = cfl;
   c.earth_pressure = ep;
+  c.time_stepping = ts;
   return c;
 }
+inline const char* name(Scheme s) { return s == Scheme::Minmod ? "Minmod" : "Beam-Warming"; }
+inline const char* name(TimeStepping t) {
+  return t == TimeStepping::Staggered ? "Staggered" : "Semi-discrete";
+}
+constexpr TimeStepping kBothTimeSteppings[] = {TimeStepping::Staggered,
+                                               TimeStepping::SemiDiscrete};
 
 inline DamBoundary boundary(BoundaryType t) {
   DamBoundary b;
@@ -58,6 +66,7 @@ inline DamBoundary boundary(BoundaryType t) {
 inline DamBoundary inflow(std::function<std::array<double, 2>(double)> f) {
   DamBoundary b;
   b.type = BoundaryType::Inflow;
+  b.prescribed = true;
   b.inflow = [f = std::move(f)](double t, double) { return f(t); };
   return b;
 }
@@ -122,5 +131,24 @@ inline std::vector<double> cell_averages(const std::function<double(double)>& f,
 }
 
 inline double min_of(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
+
+/// Advance to t_end with dt = min(stable_dt(), dt_cap, t_end - t) (a `Time->Max time step`).
+inline void advance_capped(DamSolver& s, double t_end, double dt_cap,
+                           const std::function<void(const DamSolver&)>& after = {}) {
+  while (t_end - s.time() > 1e-13 * std::max(1.0, std::abs(t_end))) {
+    const double dt = std::min({s.stable_dt(), dt_cap, t_end - s.time()});
+    ASSERT_GT(dt, 0.0);
+    s.step(dt);
+    const auto hl = s.check();
+    ASSERT_TRUE(hl.ok) << "t = " << s.time() << ": " << hl.quantity << " = " << hl.value
+                       << " at x = " << hl.x << " (" << hl.reason << ")";
+    s.accept();
+    if (after) after(s);
+  }
+}
+
+/// The paper's Setup II material and slope in the DAM: zeta = 50, delta = 22, phi = 33 deg,
+/// Savage-Hutter K.
+inline DamPhysics setup2_physics() { return incline(50.0, 22.0, 33.0, EarthPressure::SavageHutter); }
 
 }  // namespace granflow::dam::testing

@@ -80,6 +80,29 @@ TEST(InflowSeries, RejectsNonIncreasingTimesAndNegativeDepthNamingTheLine) {
   }
 }
 
+// A series is refused like the constant inflow (depth > 0 needs a velocity > 0): a negative
+// velocity on any row (material leaving through the gate) and a row with h > 0 and u = 0 name
+// the file, the line and the values; u = 0 with h = 0 (gate closed) is accepted.
+TEST(InflowSeries, RejectsVelocitiesOutOfTheChannelNamingTheLine) {
+  const std::string p = "granflow->Channel->Left boundary->Inflow series file";
+  for (const char* text : {"0,0.06,0.37\n1,0.06,-0.2\n", "0,0,0.3\n1,0,-0.1\n",
+                           "0,0.06,0.37\n0.5,0.06,0\n"}) {
+    const auto f = write_tmp("series_bad_u.csv", text);
+    try {
+      core::InflowSeries::from_csv(f, p);
+      FAIL() << "accepted: " << text;
+    } catch (const params::InputError& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find(p), std::string::npos) << m;
+      EXPECT_NE(m.find("line 2"), std::string::npos) << m;
+      EXPECT_NE(m.find("velocity u = "), std::string::npos) << m;
+      EXPECT_NE(m.find("allowed: u >= 0"), std::string::npos) << m;
+    }
+  }
+  const auto ok = write_tmp("series_gate_closes.csv", "0,0.06,0.37\n1,0.06,0.37\n1.1,0,0\n");
+  EXPECT_NO_THROW(core::InflowSeries::from_csv(ok, p));
+}
+
 TEST(Scene, EveryShippedSceneValidatesAndBuilds) {
   for (const char* s : {"setup1_dam.xml", "setup2_dam.xml", "dambreak_incline.xml"}) {
     const auto scene = scene::load(std::string(GRANFLOW_INPUTS) + "/" + s);

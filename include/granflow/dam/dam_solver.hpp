@@ -13,8 +13,9 @@
 // x0 + j dx whose two end cells straddle the channel ends and count half in the mass. Slopes are
 // either minmod-limited (TVD) or, in the paper's limiter-free variant, Beam-Warming (one-sided
 // upwind differences). Bed friction is applied so that it opposes the motion and never reverses
-// it: material decelerates, stops and stays where |driving force| <= friction. See
-// docs/numerics.md for the derivation of each block.
+// it: material decelerates, stops and stays where |driving force| <= friction for some earth
+// pressure between K_act and K_pas. A prescribed inflow is a cell face of both grids and lets in
+// exactly the flux of its state. See docs/numerics.md for the derivation of each block.
 #include "granflow/core/channel.hpp"
 #include "granflow/core/material.hpp"
 #include "granflow/core/stepper.hpp"
@@ -30,6 +31,9 @@
 namespace granflow::dam {
 
 enum class Scheme { Minmod, BeamWarming };
+/// Time stepping: the paper's staggered NOC scheme (Nessyahu-Tadmor), or the semi-discrete
+/// central scheme of Kurganov & Tadmor (2000) with Heun's method on the primary grid only.
+enum class TimeStepping { Staggered, SemiDiscrete };
 enum class EarthPressure { SavageHutter, Active, Passive, Isotropic };
 /// The names of the "DAM" list's 'Scheme' and 'Earth pressure' values.
 inline const char* to_string(Scheme s) { return s == Scheme::Minmod ? "Minmod" : "Beam-Warming"; }
@@ -47,6 +51,7 @@ inline const char* to_string(EarthPressure e) {
 struct DamConfig {
   int cells = 400;
   Scheme scheme = Scheme::Minmod;
+  TimeStepping time_stepping = TimeStepping::Staggered;
   double cfl = 0.45;
   EarthPressure earth_pressure = EarthPressure::SavageHutter;
   double k_smoothing = 0.1;  ///< [1/s] width of the tanh switch of K at u_x = 0
@@ -75,6 +80,9 @@ struct DamPhysics {
   /// Earth pressure coefficient for a velocity gradient u_x: active for u_x > 0, passive for
   /// u_x < 0, switched smoothly, K = (K_a + K_p)/2 - (K_p - K_a)/2 tanh(u_x / k_smoothing).
   double K(double u_x) const;
+  /// The range of K that material at rest can take: [K_act, K_pas] (the Rankine limits) for
+  /// Savage-Hutter, the one value otherwise.
+  std::array<double, 2> K_bounds() const;
 };
 
 /// A DAM boundary: its type and, for Inflow, the state (h, u) it imposes at time t on a ghost
@@ -82,9 +90,15 @@ struct DamPhysics {
 /// interface the coupled model samples the depth-averaged 2D state at the ghost centres, which
 /// lie inside the neighbouring 2D subdomain (eqs. 19-21), so the time-staggered 1D grid reads
 /// the 2D field where its ghost cells really are.
+///
+/// A prescribed inflow (`prescribed`, set by `from` for the channel's gate) imposes the flux of
+/// its state at the end: all that enters in a step is the flux of (h_in, u_in)(t + dt/2) times
+/// dt, whatever dt. An interface (`prescribed` false, the default, as the coupled model builds
+/// it) overlaps: its ghosts are the neighbour's state where they lie.
 struct DamBoundary {
   core::BoundaryType type = core::BoundaryType::Outflow;
   std::function<std::array<double, 2>(double t, double x)> inflow;  ///< (t, x) -> {h, u}
+  bool prescribed = false;  ///< Inflow only: a prescribed inflow (true) or an interface (false)
   static DamBoundary from(const core::BoundarySpec& spec);
 };
 
@@ -168,10 +182,19 @@ class DamSolver final : public core::Stepper {
   void fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int n, bool on_b,
                    double t) const;
   bool wall_centred(int j, int n, bool on_b) const;
+  /// +1 / -1 if cell j of a primary grid of n cells touches a right / left Wall, else 0.
+  int wall_side(int j, int n) const;
+  static bool comes_to_rest(double q1, double q2, double fric, int wall);
   double velocity(double h, double hu) const {
     return h > cfg_.dry_depth ? hu / h : 0.0;
   }
   void fix_positivity(std::vector<double>& h, std::vector<double>& hu, bool on_b);
+  void step_semidiscrete(double dt);
+  /// One forward-Euler stage w + dt L(w) of the semi-discrete scheme from the primary-grid
+  /// state (h, hu) at time t, with the bounded friction; `in`/`out`: mass through the ends.
+  void euler_stage(const std::vector<double>& h0, const std::vector<double>& hu0, double t,
+                   double dt, std::vector<double>& h1, std::vector<double>& hu1, double& in,
+                   double& out);
 
   DamConfig cfg_;
   DamPhysics phys_;
