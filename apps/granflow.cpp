@@ -108,7 +108,9 @@ int main(int argc, char** argv) {
     scene::check_memory(s, memory, scene::machine_memory());
     // 5. The restart checkpoint and the run directory (before the model is built).
     core::preflight(*s.params, rc);
-    // 6. Build only what the scene's model uses, with its initial state.
+    // 6. Build only what the scene's model uses, with its initial state (a signal from here on
+    //    stops the run before its first step, with a checkpoint and a summary).
+    if (!check_only) core::catch_interrupts();
     auto model = scene::build_model(s);
     if (check_only) {
       out << file << ": valid scene '" << s.name << "' (model " << s.model

@@ -5,6 +5,13 @@
 #include <Teuchos_Array.hpp>
 #include <nlohmann/json.hpp>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -271,6 +278,26 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
     if (!kept(p)) plan.remove.push_back(p.string());
   }
   return plan;
+}
+
+DirectoryLock::DirectoryLock(const std::string& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return;
+  fd_ = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd_ < 0) return;  // unreadable: creating files there fails with its own message
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int e = errno;
+    ::close(fd_);
+    fd_ = -1;
+    if (e == EWOULDBLOCK)
+      throw params::InputError("parameter 'granflow->Output->Directory' = " + dir +
+                               ": another granflow run is writing into it now; allowed: a "
+                               "directory no other run uses");
+  }
+}
+
+DirectoryLock::~DirectoryLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing the descriptor releases the flock
 }
 
 void write_manifest(const std::string& dir, const RunManifest& m) {

@@ -90,6 +90,7 @@ RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
 struct Simulation::Io {
   io::ProfileWriter profiles;
   io::Hdf5FieldOutput fields;
+  std::unique_ptr<DirectoryLock> lock;  // rank 0, for the whole run
 };
 
 Simulation::Simulation(std::string scene_name, const Teuchos::ParameterList& validated,
@@ -166,18 +167,25 @@ void agree_on_error(std::string& message) {
 volatile std::sig_atomic_t g_signal = 0;
 extern "C" void on_signal(int sig) { g_signal = sig; }
 
+void install(struct sigaction* old_int, struct sigaction* old_term) {
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESETHAND | SA_RESTART;
+  sigaction(SIGINT, &sa, old_int);
+  sigaction(SIGTERM, &sa, old_term);
+}
+
+// For the run: our handler (again), the previous ones restored afterwards. A signal that came
+// before (while the model was built, see catch_interrupts()) stays pending, and the default
+// action it left in place stays, so that a second signal still ends the process.
 class SignalGuard {
  public:
-  SignalGuard() {
-    g_signal = 0;
-    struct sigaction sa {};
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sa.sa_flags = SA_RESETHAND | SA_RESTART;
-    sigaction(SIGINT, &sa, &old_int_);
-    sigaction(SIGTERM, &sa, &old_term_);
+  SignalGuard() : installed_(g_signal == 0) {
+    if (installed_) install(&old_int_, &old_term_);
   }
   ~SignalGuard() {
+    if (!installed_) return;
     sigaction(SIGINT, &old_int_, nullptr);
     sigaction(SIGTERM, &old_term_, nullptr);
   }
@@ -185,6 +193,7 @@ class SignalGuard {
   SignalGuard& operator=(const SignalGuard&) = delete;
 
  private:
+  bool installed_;
   struct sigaction old_int_ {}, old_term_ {};
 };
 
@@ -217,11 +226,6 @@ io::Checkpoint read_restart(const std::string& file) {
   }
 }
 
-double restart_time(const io::Checkpoint& c, const std::string& file,
-                    const std::vector<std::string>& canonical, double end_time) {
-  return check_restart(c, file, canonical, end_time);
-}
-
 std::string host_name() {
   char buf[256] = {0};
   if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
@@ -246,14 +250,17 @@ std::string mpi_library() {
 }
 }  // namespace
 
+void catch_interrupts() { install(nullptr, nullptr); }
+
 void preflight(const Teuchos::ParameterList& validated, const RunControl& rc) {
   const auto canonical = canonical_parameters(validated);
   const auto identity = scene_identity(canonical);
   if (!rc.restart_from.empty())
-    restart_time(read_restart(rc.restart_from), rc.restart_from, canonical, rc.end_time);
+    check_restart(read_restart(rc.restart_from), rc.restart_from, canonical, rc.end_time);
   std::string err;
   if (io_rank()) {
     try {
+      const DirectoryLock probe(rc.directory);  // refused while another run holds it
       plan_directory(rc.directory, identity, canonical, rc.overwrite, !rc.restart_from.empty(),
                      rc.restart_from);
     } catch (const params::InputError& e) {
@@ -418,7 +425,7 @@ int Simulation::run() {
   io::Checkpoint ck;
   if (restarted_) {
     ck = read_restart(rc_.restart_from);
-    restart_time_ = restart_time(ck, rc_.restart_from, canonical_, rc_.end_time);
+    restart_time_ = check_restart(ck, rc_.restart_from, canonical_, rc_.end_time);
   }
   // Take the run directory: rank 0 decides (and removes an earlier run's files); every rank
   // learns the verdict.
@@ -426,9 +433,13 @@ int Simulation::run() {
   DirectoryPlan plan;
   if (io_rank()) {
     try {
+      // Refusals first (a file in the way, another scene), then under the lock for real.
+      plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
+                     rc_.restart_from);
+      std::filesystem::create_directories(rc_.directory);
+      io_->lock = std::make_unique<DirectoryLock>(rc_.directory);
       plan = plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
                             rc_.restart_from);
-      std::filesystem::create_directories(rc_.directory);
       for (const auto& f : plan.remove) std::filesystem::remove(f);
     } catch (const params::InputError& e) {
       err = e.what();
@@ -448,7 +459,6 @@ int Simulation::run() {
   if (io_rank())
     write_manifest(rc_.directory, RunManifest{scene_name_, model_->model_name(), identity_,
                                               canonical_, files_, "running"});
-  owns_directory_ = true;
   // From here on the directory is this run's: whatever stops it leaves a summary.json.
   auto summary_then_rethrow = [&](const std::string& status, const char* what, int code) {
     try {

@@ -461,7 +461,11 @@ Checkpoint read_checkpoint(const std::string& file) {
   try {
     H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + file);
     if (H5Aexists(f.id, "checksum") <= 0 || H5Aexists(f.id, "format") <= 0) {
+      const bool old = H5Lexists(f.id, "scalars", H5P_DEFAULT) > 0 &&
+                       H5Lexists(f.id, "arrays", H5P_DEFAULT) > 0;
       H5Eclear2(H5E_DEFAULT);
+      if (!old)
+        throw CheckpointError("'" + file + "' is an HDF5 file but not a granflow checkpoint");
       throw CheckpointError("'" + file +
                             "' was written by an older granflow: it has no scene record and no "
                             "checksum, so it cannot be checked against this scene; rerun the scene "

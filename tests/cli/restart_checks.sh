@@ -48,6 +48,10 @@ expect 2 "cannot be read \(truncated or corrupted\?\)" trunc.xml
 base empty.xml empty.h5 empty
 expect 2 "'empty.h5' is not an HDF5 file" empty.xml
 
+# An HDF5 file that is not a checkpoint (the run's fields.h5).
+base fields.xml first/fields.h5 fieldsck
+expect 2 "'first/fields.h5' is an HDF5 file but not a granflow checkpoint" --check fields.xml
+
 # 6. Flipped data bytes: 1.0 written over h of cell 5 (inside the dataset, found with h5dump).
 cp $ck flipped.h5
 offset=$(h5dump -p -H -d "/arrays/dam:h" flipped.h5 | sed -n 's/^ *OFFSET \([0-9]*\).*/\1/p')

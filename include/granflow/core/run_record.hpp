@@ -79,6 +79,21 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
                              const std::vector<std::string>& lines, bool overwrite,
                              bool restart, const std::string& keep);
 
+/// An exclusive lock (flock) on the run directory while this object lives: a second granflow
+/// started on the same directory (the same scene by mistake, or another) is refused with an
+/// InputError instead of deleting the files the first one writes. The kernel releases the lock
+/// when the process ends, however it ends. A directory that does not exist is not locked.
+class DirectoryLock {
+ public:
+  explicit DirectoryLock(const std::string& dir);
+  ~DirectoryLock();
+  DirectoryLock(const DirectoryLock&) = delete;
+  DirectoryLock& operator=(const DirectoryLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
 /// Writes `dir`/run.json atomically.
 void write_manifest(const std::string& dir, const RunManifest& m);
 

@@ -53,6 +53,11 @@ enum ExitCode : int {
   kInterruptedBase = 128
 };
 
+/// Record SIGINT and SIGTERM from now on (the application calls it before building the model,
+/// which can take long): Simulation::run() then stops before its first step with a checkpoint
+/// of the initial (or restart) state. A second signal takes the default action.
+void catch_interrupts();
+
 /// Checks done before anything is built or written, also by `granflow --check`: a restart's
 /// checkpoint is readable, intact, of this scene and before the end time; the run directory may
 /// be written (it holds no other scene's files, or rc.overwrite). Throws params::InputError.
@@ -95,7 +100,6 @@ class Simulation {
   long next_index_ = 1;   ///< k of the next output time
   bool restarted_ = false;
   double restart_time_ = 0.0;
-  bool owns_directory_ = false;
   std::vector<std::string> canonical_;  ///< validated parameters (run_record.hpp)
   std::string identity_;
   std::vector<std::string> files_;      ///< files this run (and its earlier parts) wrote
