@@ -93,9 +93,33 @@ std::pair<std::string, std::string> split(const std::string& line) {
   return {line.substr(0, open), line.substr(open + 1)};
 }
 
-std::string value_of(const std::string& typed) {  // "(double) = 50" -> "50"
+std::string exact_value(const std::string& typed) {
   const auto eq = typed.find(") = ");
   return eq == std::string::npos ? typed : typed.substr(eq + 4);
+}
+
+// For messages: "(double) = 0.14999999999999999" -> "0.15" (10 significant digits, as users
+// write numbers; the comparison itself uses the exact text).
+std::string value_of(const std::string& typed) {
+  const auto eq = typed.find(") = ");
+  if (eq == std::string::npos) return typed;
+  const std::string v = typed.substr(eq + 4);
+  const bool scalar = typed.rfind("(double)", 0) == 0, array = typed.rfind("(Array(double))", 0) == 0;
+  if (!scalar && !array) return v;
+  std::string out;
+  std::size_t i = 0;
+  while (i < v.size()) {  // every number in the text, shortened
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str() + i, &end);
+    const auto used = static_cast<std::size_t>(end - (v.c_str() + i));
+    if (used > 0 && (std::isdigit(static_cast<unsigned char>(v[i])) || v[i] == '-' || v[i] == '+' || v[i] == '.')) {
+      out += params::str(x);
+      i += used;
+    } else {
+      out += v[i++];
+    }
+  }
+  return out;
 }
 
 std::uint64_t fnv1a(const std::string& s, std::uint64_t h) {
@@ -151,9 +175,11 @@ std::vector<std::string> scene_differences(const std::vector<std::string>& their
     const auto it = a.find(path);
     if (it == a.end())
       d.push_back("'" + path + "' = " + value_of(v) + " here, not a parameter there");
-    else if (it->second != v)
-      d.push_back("'" + path + "' = " + value_of(it->second) + " there, " + value_of(v) +
-                  " here");
+    else if (it->second != v) {
+      std::string there = value_of(it->second), here = value_of(v);
+      if (there == here) there = exact_value(it->second), here = exact_value(v);  // 11th digit on
+      d.push_back("'" + path + "' = " + there + " there, " + here + " here");
+    }
   }
   for (const auto& [path, v] : a)
     if (!restart_may_change(path) && path != "Model" && b.find(path) == b.end())

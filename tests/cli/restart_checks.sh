@@ -39,6 +39,20 @@ scene "$SRC/record_ndam.xml" ndam.xml -e 's|value="record_dir"/>|value="ndam"/>|
 expect 2 "the checkpoint belongs to a different scene: 'Model' = \"DAM\" there, \"N-DAM\" here" --check ndam.xml
 expect 2 "'Model' = \"DAM\" there, \"N-DAM\" here" ndam.xml
 
+# A 2D checkpoint: another box height or rheology is refused, a solver tolerance may change.
+scene "$SRC/record_ndam.xml" nd_first.xml -e 's|value="record_dir"/>|value="nd_first"/>|' \
+      -e 's|"Checkpoint" type="bool" value="false"|"Checkpoint" type="bool" value="true"|'
+expect 0 "completed at t = 0.02 s" nd_first.xml
+nd() { scene "$SRC/record_ndam.xml" "$1" -e "s|value=\"record_dir\"/>|value=\"$2\"/>|" \
+       -e 's|<Parameter name="Fields"|<Parameter name="Restart from" type="string" value="nd_first/checkpoint.h5"/>&|' \
+       -e 's|"End time" type="double" value="0.02"|"End time" type="double" value="0.04"|' "${@:3}"; }
+nd nd_height.xml nd_height -e 's|"Height" type="double" value="0.15"|"Height" type="double" value="0.2"|'
+expect 2 "the checkpoint belongs to a different scene: 'N-DAM->Height' = 0.15 there, 0.2 here" nd_height.xml
+nd nd_rheo.xml nd_rheo -e 's|"Viscosity" type="double" value="0.003"|"Viscosity" type="double" value="0.005"|'
+expect 2 "'Rheology->Viscosity' = 0.003 there, 0.005 here" --check nd_rheo.xml
+nd nd_tol.xml nd_tol -e 's|<Parameter name="Free surface"|<ParameterList name="Pressure solver"><Parameter name="Tolerance" type="double" value="1e-8"/><Parameter name="Max iterations" type="int" value="500"/></ParameterList>&|'
+expect 0 "completed at t = 0.04 s" nd_tol.xml
+
 # 5. A truncated checkpoint (a copy cut at 3000 of its bytes): --check and the run say so.
 head -c 3000 $ck > truncated.h5
 base trunc.xml truncated.h5 trunc
