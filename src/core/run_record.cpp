@@ -236,9 +236,58 @@ const std::vector<std::string>& output_file_names() {
   return names;
 }
 
+nlohmann::json parameters_json(const Teuchos::ParameterList& pl) {
+  nlohmann::json j = nlohmann::json::object();
+  for (auto it = pl.begin(); it != pl.end(); ++it) {
+    const auto& name = pl.name(it);
+    const auto& e = pl.entry(it);
+    if (e.isList()) {
+      j[name] = parameters_json(pl.sublist(name));
+    } else if (e.isType<double>()) {
+      j[name] = e.getValue<double>(nullptr);
+    } else if (e.isType<int>()) {
+      j[name] = e.getValue<int>(nullptr);
+    } else if (e.isType<bool>()) {
+      j[name] = e.getValue<bool>(nullptr);
+    } else {
+      j[name] = Teuchos::toString(e.getAny(false));
+    }
+  }
+  return j;
+}
+
+namespace {
+// The parameters of summary.json without the ones a restart may change (for directories of a
+// granflow before run.json, whose summary.json holds parameters_json() of their scene).
+void strip_changeable(nlohmann::json& j, const std::string& prefix) {
+  for (auto it = j.begin(); it != j.end();) {
+    const std::string path = prefix.empty() ? it.key() : prefix + "->" + it.key();
+    if (restart_may_change(path)) {
+      it = j.erase(it);
+    } else {
+      if (it->is_object()) strip_changeable(*it, path);
+      ++it;
+    }
+  }
+}
+
+bool legacy_same_scene(const fs::path& summary, const Teuchos::ParameterList& validated) {
+  try {
+    std::ifstream in(summary);
+    auto theirs = nlohmann::json::parse(in).at("parameters");
+    auto ours = parameters_json(validated);
+    strip_changeable(theirs, "");
+    strip_changeable(ours, "");
+    return theirs == ours;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+}  // namespace
+
 DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
                              const std::vector<std::string>& lines, bool overwrite, bool restart,
-                             const std::string& keep) {
+                             const std::string& keep, const Teuchos::ParameterList& validated) {
   DirectoryPlan plan;
   const std::string param = "parameter 'granflow->Output->Directory' = " + dir + ": ";
   std::error_code ec;
@@ -275,7 +324,9 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
   std::string files;
   for (const auto& n : present) files += (files.empty() ? "" : ", ") + n;
 
-  plan.same_scene = have_manifest && earlier.identity == ours;
+  plan.same_scene = have_manifest ? earlier.identity == ours
+                                  : legacy_same_scene(fs::path(dir) / "summary.json", validated);
+  if (!have_manifest && plan.same_scene) earlier.files = present;
   if (!plan.same_scene && !overwrite) {
     std::string why;
     if (have_manifest) {
@@ -292,6 +343,7 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
                              "replace those files");
   }
   if (plan.same_scene) plan.earlier_files = earlier.files;
+  have_manifest = have_manifest || plan.same_scene;
   if (plan.same_scene && restart) return plan;  // continued: the driver cuts back, keeps
   // A fresh run of the same scene, or --overwrite: remove the earlier run's files (the ones
   // its manifest lists and any other granflow output names), never the checkpoint we read.

@@ -99,26 +99,6 @@ Simulation::Simulation(std::string scene_name, const Teuchos::ParameterList& val
       rc_(std::move(rc)), io_(std::make_shared<Io>()) {}
 
 namespace {
-nlohmann::json to_json(const Teuchos::ParameterList& pl) {
-  nlohmann::json j = nlohmann::json::object();
-  for (auto it = pl.begin(); it != pl.end(); ++it) {
-    const auto& name = pl.name(it);
-    const auto& e = pl.entry(it);
-    if (e.isList()) {
-      j[name] = to_json(pl.sublist(name));
-    } else if (e.isType<double>()) {
-      j[name] = e.getValue<double>(nullptr);
-    } else if (e.isType<int>()) {
-      j[name] = e.getValue<int>(nullptr);
-    } else if (e.isType<bool>()) {
-      j[name] = e.getValue<bool>(nullptr);
-    } else {
-      j[name] = Teuchos::toString(e.getAny(false));
-    }
-  }
-  return j;
-}
-
 std::string fmt_seconds(double s) {
   std::ostringstream os;
   os.setf(std::ios::fixed);
@@ -262,7 +242,7 @@ void preflight(const Teuchos::ParameterList& validated, const RunControl& rc) {
     try {
       const DirectoryLock probe(rc.directory);  // refused while another run holds it
       plan_directory(rc.directory, identity, canonical, rc.overwrite, !rc.restart_from.empty(),
-                     rc.restart_from);
+                     rc.restart_from, validated);
     } catch (const params::InputError& e) {
       err = e.what();
     }
@@ -305,7 +285,7 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   s["scene"] = scene_name_;
   s["model"] = model_->model_name();
   s["identity"] = identity_;
-  s["parameters"] = to_json(params_);
+  s["parameters"] = parameters_json(params_);
   s["status"] = status;
   s["reason"] = reason;
   s["exit_code"] = code;
@@ -435,11 +415,11 @@ int Simulation::run() {
     try {
       // Refusals first (a file in the way, another scene), then under the lock for real.
       plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
-                     rc_.restart_from);
+                     rc_.restart_from, params_);
       std::filesystem::create_directories(rc_.directory);
       io_->lock = std::make_unique<DirectoryLock>(rc_.directory);
       plan = plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
-                            rc_.restart_from);
+                            rc_.restart_from, params_);
       for (const auto& f : plan.remove) std::filesystem::remove(f);
     } catch (const params::InputError& e) {
       err = e.what();

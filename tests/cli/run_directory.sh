@@ -39,10 +39,20 @@ done
 # A slope change is a different scene, also for the directory.
 dam steeper.xml same -e 's|<Parameter name="Length" type="double" value="1.0"/>|&<Parameter name="Slope angle" type="double" value="55"/>|'
 expect 2 "Directory' = same: it holds the run of a different scene \('same'; 'Channel->Slope angle' = 50 there, 55 here\)" steeper.xml
-# granflow files without a run.json (an older granflow): refused too.
+# granflow files without run.json and without a summary.json of this scene: refused.
 mkdir legacy && echo "t,x,h,u_mean,eps,model" > legacy/profiles.csv
 dam legacy.xml legacy
 expect 2 "Directory' = legacy: it holds granflow output files without a run record \(run.json\).*: profiles.csv" legacy.xml
+# A directory of a granflow before run.json (here: run.json removed): its summary.json records
+# the parameters, so the same scene reruns (the README's command stays repeatable across the
+# upgrade) and a changed one is refused.
+dam old.xml old
+expect 0 "completed" old.xml
+rm old/run.json
+dam old_steeper.xml old -e 's|<Parameter name="Length" type="double" value="1.0"/>|&<Parameter name="Slope angle" type="double" value="55"/>|'
+expect 2 "Directory' = old: it holds granflow output files without a run record" old_steeper.xml
+expect 0 "completed" old.xml
+[ -e old/run.json ] || fail "the rerun did not write run.json"
 # A directory that is a file.
 : > plainfile
 dam file.xml plainfile

@@ -12,6 +12,7 @@
 #include "granflow/io/fields.hpp"
 
 #include <Teuchos_ParameterList.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include <string>
 #include <vector>
@@ -70,6 +71,9 @@ struct DirectoryPlan {
 ///  - run.json of the same identity: yes; a fresh run removes the earlier run's files (all of
 ///    them, including the ones this run does not write), a restart keeps them (the driver cuts
 ///    profiles and fields back to the checkpoint time);
+///  - granflow files without run.json (a granflow before it): the same as a run.json of this
+///    identity when their summary.json records these parameters (parameters_json(), without
+///    the restart-changeable ones), else like another identity;
 ///  - run.json of another identity, or granflow files without run.json: only with
 ///    `overwrite` (then those files are removed); otherwise an InputError naming the directory,
 ///    the files and the differing parameters.
@@ -77,7 +81,11 @@ struct DirectoryPlan {
 /// Reads only; the caller removes plan.remove.
 DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
                              const std::vector<std::string>& lines, bool overwrite,
-                             bool restart, const std::string& keep);
+                             bool restart, const std::string& keep,
+                             const Teuchos::ParameterList& validated);
+
+/// The validated list as JSON (summary.json "parameters").
+nlohmann::json parameters_json(const Teuchos::ParameterList& validated);
 
 /// An exclusive lock (flock) on the run directory while this object lives: a second granflow
 /// started on the same directory (the same scene by mistake, or another) is refused with an
