@@ -245,6 +245,8 @@ void preflight(const Teuchos::ParameterList& validated, const RunControl& rc) {
                      rc.restart_from, validated);
     } catch (const params::InputError& e) {
       err = e.what();
+    } catch (const std::exception& e) {  // e.g. no permission to read the directory
+      err = "parameter 'granflow->Output->Directory' = " + rc.directory + ": " + e.what();
     }
   }
   agree_on_error(err);

@@ -11,13 +11,22 @@ source "$SRC/record_lib.sh"
 work=interrupt${NP:+_np$NP}
 rm -rf $work && mkdir $work && cd $work || exit 1
 
-# wait_for FILE REGEX PID: until FILE has a line matching REGEX (or the process ended)
+# wait_for FILE REGEX PID: until FILE has a line matching REGEX, or fail when the process has
+# ended (a child that ended is a zombie until waited for: kill -0 still finds it).
 wait_for() {
   until grep -Eq -- "$2" "$1" 2> /dev/null; do
-    kill -0 "$3" 2> /dev/null || fail "the run ended before '$2' appeared in $1"
+    local st
+    st=$(ps -o stat= -p "$3" 2> /dev/null)
+    if [ -z "$st" ] || [ "${st#Z}" != "$st" ]; then
+      cat "${1%.err}.out" "$1" 2> /dev/null | tail -5
+      fail "the run ended before '$2' appeared in $1"
+    fi
     sleep 0.05
   done
 }
+# A failing check must not leave the long run behind.
+pid=
+trap '[ -n "$pid" ] && kill -KILL $pid 2> /dev/null' EXIT
 
 status_of() { sed -n 's/^ *"status": "\([a-z_]*\)".*/\1/p' "$1"; }
 
