@@ -60,32 +60,47 @@ int main(int argc, char** argv) {
   std::ostream& out = root ? std::cout : sink;
   std::ostream& err = root ? std::cerr : sink;
 
-  // 2. Command line.
+  // 2. Command line. Every argument is read before anything is done, so that an unknown or
+  // extra one is a usage error (exit 1) whatever comes first: "--help --bogus" and
+  // "--parameters extra" must not succeed quietly.
   std::string file;
-  bool check_only = false;
-  bool overwrite = false;
+  bool check_only = false, help = false, reference = false, overwrite = false;
+  int others = 0;  // arguments other than --help / --parameters
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") {
-      usage(out);
-      return core::kOk;
+      help = true;
     } else if (a == "--parameters") {
-      out << scene::parameter_reference();
-      return core::kOk;
+      reference = true;
     } else if (a == "--check") {
       check_only = true;
+      ++others;
     } else if (a == "--overwrite") {
       overwrite = true;
+      ++others;
     } else if (!a.empty() && a[0] == '-') {
-      err << "granflow: unknown option '" << a << "'\n";
+      const std::string shown = params::shown(a);  // "..." with unprintable bytes as \xNN
+      err << "granflow: unknown option '" << shown.substr(1, shown.size() - 2) << "'\n";
       usage(err);
       return core::kUsage;
     } else if (file.empty()) {
       file = a;
+      ++others;
     } else {
       err << "granflow: more than one scene file given ('" << file << "', '" << a << "')\n";
       return core::kUsage;
     }
+  }
+  if (help || reference) {
+    if (help + reference + others != 1) {
+      err << "granflow: " << (help ? "--help" : "--parameters")
+          << " takes no other argument\n";
+      usage(err);
+      return core::kUsage;
+    }
+    if (help) usage(out);
+    else out << scene::parameter_reference();
+    return core::kOk;
   }
   if (file.empty()) {
     usage(err);

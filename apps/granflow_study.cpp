@@ -7,9 +7,14 @@
 //       [0, L] against time (Fig. 14). Writes DIR/compare_errors.csv,
 //       DIR/average_velocity.csv and, when python3 with matplotlib is present, DIR/compare.png.
 //   granflow-study layout RUN --length L [--threshold E] [--margin M] [--min-length S]
-//       A priori 2D/1D layout from a (fast, 1D) run: 2D wherever eps >= E (default 0.1) at any
-//       output time, widened by M on both sides (paper section 4.1).
+//                  [--h-min H]
+//       A priori 2D/1D layout from a (fast, 1D) run: 2D wherever eps >= E at any output time
+//       on cells deeper than H, widened by M on both sides (paper section 4.1). The defaults
+//       are those of the scene's Decomposition (analysis::LayoutCriteria, and H = the wet-depth
+//       cut of a DAM with the default dry depth), so the command gives the layout that
+//       Decomposition->Layout = A priori builds from the same run.
 #include "granflow/analysis/profiles.hpp"
+#include "granflow/dam/dam_solver.hpp"
 
 #include <cmath>
 #include <cstdlib>
@@ -22,6 +27,15 @@
 
 namespace {
 using namespace granflow::analysis;
+
+// compare: the paper's relative errors are taken over the flowing part of the reference run,
+// where h > 1 mm (1/60 of the 6 cm gate opening) and |u_mean| > 1 mm/s; below that the
+// relative error of u is dominated by the front position and the resting deposit.
+constexpr double kFlowingDepth = 1e-3;     // [m]
+constexpr double kFlowingVelocity = 1e-3;  // [m/s]
+// The paper's l of the velocity average u(l) = 1/l int_0^l u_mean dx (Fig. 14: the flow near
+// the silo inlet) [m].
+constexpr double kAverageLength = 0.2;
 
 int usage(std::ostream& os, int code) {
   os << "usage: granflow-study compare REF_RUN TEST_RUN [--times T ...] [--h-min H] [--u-min U]\n"
@@ -54,7 +68,7 @@ int compare_cmd(int argc, char** argv) {
   if (argc < 4) return usage(std::cerr, 1);
   const std::string ref_dir = argv[2], test_dir = argv[3];
   std::vector<double> times;
-  double h_min = 1e-3, u_min = 1e-3, l = 0.2;
+  double h_min = kFlowingDepth, u_min = kFlowingVelocity, l = kAverageLength;
   std::string out = test_dir;
   for (int i = 4; i < argc; ++i) {
     const std::string a = argv[i];
@@ -118,7 +132,9 @@ int compare_cmd(int argc, char** argv) {
 int layout_cmd(int argc, char** argv) {
   if (argc < 3) return usage(std::cerr, 1);
   const std::string run = argv[2];
-  double length = -1, threshold = 0.1, margin = 0.05, min_length = 0.05, h_min = 1e-3;
+  const LayoutCriteria d;
+  double length = -1, threshold = d.threshold, margin = d.margin, min_length = d.min_length;
+  double h_min = layout_wet_depth(granflow::dam::DamConfig{}.dry_depth);
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) { std::cerr << "granflow-study: " << a << " needs a value\n"; return 1; }

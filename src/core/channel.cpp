@@ -7,6 +7,8 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <string>
+#include <vector>
 
 namespace granflow::core {
 
@@ -36,15 +38,34 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
   int lineno = 0;
   while (std::getline(in, line)) {
     ++lineno;
-    if (line.empty() || line[0] == '#') continue;
-    std::replace(line.begin(), line.end(), ',', ' ');
-    std::istringstream ls(line);
-    double t, h, u;
-    if (!(ls >> t >> h >> u)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF files
+    if (line.find_first_not_of(" \t") == std::string::npos || line[0] == '#') continue;
+    // Exactly three fields t,h,u (commas, or blanks in a file without commas), each a whole
+    // number by params::parse_double: "0.1abc" or a fourth column is an error, not 0.1.
+    std::vector<std::string> f;
+    if (line.find(',') != std::string::npos) {
+      std::size_t a = 0, b;
+      while ((b = line.find(',', a)) != std::string::npos) f.push_back(line.substr(a, b - a)), a = b + 1;
+      f.push_back(line.substr(a));
+    } else {
+      std::istringstream ls(line);
+      for (std::string w; ls >> w;) f.push_back(w);
+    }
+    double v[3];
+    std::string why = "has " + std::to_string(f.size()) + " fields";
+    bool ok = f.size() == 3;
+    for (std::size_t k = 0; ok && k < 3; ++k)
+      if (!params::parse_double(f[k], v[k], why)) {
+        ok = false;
+        why = "field " + std::to_string(k + 1) + " " + params::shown(f[k]) + " is " + why;
+      }
+    if (!ok) {
       if (s.t_.empty() && lineno == 1) continue;  // header
       throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
-                               std::to_string(lineno) + " is not 't,h,u' numbers");
+                               std::to_string(lineno) + " " + why +
+                               "; allowed: three numbers t,h,u separated by commas");
     }
+    const double t = v[0], h = v[1], u = v[2];
     if (!std::isfinite(t) || !std::isfinite(h) || !std::isfinite(u) || h < 0.0 ||
         (!s.t_.empty() && t <= s.t_.back()))
       throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
@@ -86,24 +107,26 @@ Teuchos::RCP<const Teuchos::ParameterList> Channel::getValidParameters() {
   static Teuchos::RCP<const Teuchos::ParameterList> valid = [] {
     using namespace params;
     auto pl = Teuchos::rcp(new Teuchos::ParameterList("Channel"));
-    add_double(*pl, "Length", 1.0, "L [m]: channel length along the slope", 1e-6, 1e6);
-    add_double(*pl, "Slope angle", 50.0, "zeta [deg]: inclination of the channel bed", 0.0, 89.0);
+    const Channel d;
+    add_double(*pl, "Length", d.length, "L [m]: channel length along the slope", 1e-6, 1e6);
+    add_double(*pl, "Slope angle", d.slope_deg, "zeta [deg]: inclination of the channel bed",
+               0.0, 89.0);
     auto& left = pl->sublist("Left boundary", false,
                              "Upstream end x = 0 (the silo gate in the paper's setups)");
-    add_enum(left, "Type", "Inflow",
+    add_enum(left, "Type", to_string(d.left.type),
              "Inflow: prescribed depth and mean velocity (constant or series file); Outflow: "
              "open end (zero gradient); Wall: rigid closed end; Periodic: both ends periodic",
              kLeftTypes);
-    add_double(left, "Inflow depth", 0.06, "h_in [m]: opening of the silo gate (Inflow only)",
-               0.0, 1e3);
-    add_double(left, "Inflow velocity", 0.37,
+    add_double(left, "Inflow depth", d.left.inflow.depth(0.0),
+               "h_in [m]: opening of the silo gate (Inflow only)", 0.0, 1e3);
+    add_double(left, "Inflow velocity", d.left.inflow.velocity(0.0),
                "u_in [m/s]: mean inflow velocity through the gate (Inflow only)", -1e3, 1e3);
     add_string(left, "Inflow series file", "",
                "CSV file with columns t,h,u (header allowed) giving a time-dependent inflow, "
                "linear in time and held after its last row; relative to the scene file. "
                "Replaces 'Inflow depth' and 'Inflow velocity' (Inflow only)");
     auto& right = pl->sublist("Right boundary", false, "Downstream end x = L");
-    add_enum(right, "Type", "Outflow",
+    add_enum(right, "Type", to_string(d.right.type),
              "Outflow: open end (zero gradient); Wall: rigid perpendicular wall; Periodic: "
              "both ends periodic",
              kRightTypes);
@@ -121,6 +144,7 @@ Channel Channel::from_parameters(const Teuchos::ParameterList& pl,
   const auto& right = pl.sublist("Right boundary");
   c.left.type = parse_type(left.get<std::string>("Type"));
   c.right.type = parse_type(right.get<std::string>("Type"));
+  c.left.inflow = c.right.inflow = InflowSeries();  // set below for an Inflow end only
 
   // Inconsistent combinations: inflow data given for an end that is not an inflow.
   const Teuchos::ParameterList* uleft =

@@ -104,7 +104,8 @@ std::string value_of(const std::string& typed) {
   const auto eq = typed.find(") = ");
   if (eq == std::string::npos) return typed;
   const std::string v = typed.substr(eq + 4);
-  const bool scalar = typed.rfind("(double)", 0) == 0, array = typed.rfind("(Array(double))", 0) == 0;
+  const bool scalar = typed.rfind("(double)", 0) == 0,
+             array = typed.rfind("(Array(double))", 0) == 0;
   if (!scalar && !array) return v;
   std::string out;
   std::size_t i = 0;
@@ -112,7 +113,8 @@ std::string value_of(const std::string& typed) {
     char* end = nullptr;
     const double x = std::strtod(v.c_str() + i, &end);
     const auto used = static_cast<std::size_t>(end - (v.c_str() + i));
-    if (used > 0 && (std::isdigit(static_cast<unsigned char>(v[i])) || v[i] == '-' || v[i] == '+' || v[i] == '.')) {
+    if (used > 0 && (std::isdigit(static_cast<unsigned char>(v[i])) || v[i] == '-' || v[i] == '+' ||
+                     v[i] == '.')) {
       out += params::str(x);
       i += used;
     } else {
@@ -208,7 +210,8 @@ std::vector<std::string> lines_of(const std::string& text) {
 
 double check_restart(const io::Checkpoint& c, const std::string& file,
                      const std::vector<std::string>& ours, double end_time) {
-  const std::string param = "parameter 'granflow->Output->Restart from' = " + file + ": ";
+  const std::string param =
+      "parameter 'granflow->Output->Restart from' = " + params::shown(file) + ": ";
   if (!c.has_text(kSceneKey) || !c.has_scalar("run/time"))
     throw params::InputError(param + "the checkpoint has no scene record; allowed: a checkpoint "
                              "written by this granflow");
@@ -289,7 +292,8 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
                              const std::vector<std::string>& lines, bool overwrite, bool restart,
                              const std::string& keep, const Teuchos::ParameterList& validated) {
   DirectoryPlan plan;
-  const std::string param = "parameter 'granflow->Output->Directory' = " + dir + ": ";
+  const std::string param =
+      "parameter 'granflow->Output->Directory' = " + params::shown(dir) + ": ";
   std::error_code ec;
   if (!fs::exists(dir, ec)) return plan;
   if (!fs::is_directory(dir, ec))
@@ -368,7 +372,7 @@ DirectoryLock::DirectoryLock(const std::string& dir) {
     ::close(fd_);
     fd_ = -1;
     if (e == EWOULDBLOCK)
-      throw params::InputError("parameter 'granflow->Output->Directory' = " + dir +
+      throw params::InputError("parameter 'granflow->Output->Directory' = " + params::shown(dir) +
                                ": another granflow run is writing into it now; allowed: a "
                                "directory no other run uses");
   }

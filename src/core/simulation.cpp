@@ -33,8 +33,8 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidTimeParameters() 
     add_double(*pl, "Min time step", d.min_dt,
                "[s] a stable dt below this stops the run as diverged (with a diagnosis)", 0.0,
                1.0);
-    add_int(*pl, "Max steps", 100000000, "stop (exit code 5) after this many steps", 1,
-            2000000000);
+    add_int(*pl, "Max steps", static_cast<int>(d.max_steps),
+            "stop (exit code 5) after this many steps", 1, 2000000000);
     return pl;
   }();
   return valid;
@@ -55,7 +55,7 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidOutputParameters(
     add_bool(*pl, "Fields", d.fields, "write HDF5 field snapshots with an XDMF index");
     add_bool(*pl, "Checkpoint", d.checkpoint, "write checkpoint.h5 at every output time");
     add_bool(*pl, "Progress", d.progress, "show a live progress line on stderr");
-    add_string(*pl, "Restart from", "",
+    add_string(*pl, "Restart from", d.restart_from,
                "checkpoint.h5 of an earlier run of the same scene to resume from (empty: start "
                "from the initial condition); relative to the current working directory, like "
                "'Directory'");
@@ -201,8 +201,8 @@ io::Checkpoint read_restart(const std::string& file) {
   try {
     return io::read_checkpoint(file);
   } catch (const io::CheckpointError& e) {
-    throw params::InputError("parameter 'granflow->Output->Restart from' = " + file + ": " +
-                             e.what() + "; allowed: an intact checkpoint.h5 of this scene");
+    throw params::InputError("parameter 'granflow->Output->Restart from' = " + params::shown(file) +
+                             ": " + e.what() + "; allowed: an intact checkpoint.h5 of this scene");
   }
 }
 
@@ -246,7 +246,8 @@ void preflight(const Teuchos::ParameterList& validated, const RunControl& rc) {
     } catch (const params::InputError& e) {
       err = e.what();
     } catch (const std::exception& e) {  // e.g. no permission to read the directory
-      err = "parameter 'granflow->Output->Directory' = " + rc.directory + ": " + e.what();
+      err = "parameter 'granflow->Output->Directory' = " + params::shown(rc.directory) + ": " +
+            e.what();
     }
   }
   agree_on_error(err);
@@ -345,9 +346,13 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   s["interfaces"] = {{"positions_over_time", layout}, {"moves", 0}};
   s["outputs"] = {{"snapshots", outputs_}, {"directory", rc_.directory}, {"files", files_}};
   if (!io_rank()) return;
+  // Serialise before the file is opened, and replace bytes that are not UTF-8 instead of
+  // throwing: a string that slipped through must not leave a 0-byte summary.json at the end of
+  // a run whose results are on disk.
+  const std::string text = s.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
   {
     std::ofstream f(rc_.directory + "/summary.json");
-    f << s.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
+    f << text << "\n";
   }
   write_manifest(rc_.directory, RunManifest{scene_name_, model_->model_name(), identity_,
                                             canonical_, files_, status});
@@ -426,7 +431,7 @@ int Simulation::run() {
     } catch (const params::InputError& e) {
       err = e.what();
     } catch (const std::exception& e) {
-      err = "parameter 'granflow->Output->Directory' = " + rc_.directory +
+      err = "parameter 'granflow->Output->Directory' = " + params::shown(rc_.directory) +
             ": cannot prepare the run directory: " + e.what();
     }
   }
@@ -471,7 +476,8 @@ int Simulation::advance(const io::Checkpoint& ck) {
   auto output_time = [&](long k) { return origin_ + static_cast<double>(k) * rc_.output_interval; };
   next_index_ = 1;
   if (restarted_) {
-    next_index_ = std::max(1L, static_cast<long>(std::floor((t0_ - origin_) / rc_.output_interval)));
+    next_index_ =
+        std::max(1L, static_cast<long>(std::floor((t0_ - origin_) / rc_.output_interval)));
     while (output_time(next_index_) <= t0_ + eps_t) ++next_index_;
     while (next_index_ > 1 && output_time(next_index_ - 1) > t0_ + eps_t) --next_index_;
   }
@@ -484,7 +490,10 @@ int Simulation::advance(const io::Checkpoint& ck) {
     if (rc_.fields) io_->fields.open(rc_.directory, keep);
     else if (restarted_) io::truncate_fields(rc_.directory, t0_);
   }
-  if (!restarted_) write_output();
+  if (!restarted_) {
+    model_->adapt();  // the layout of t0 (a dynamic layout's first check)
+    write_output();
+  }
 
   // The time loop:  dt = min(stable dt, output and end times);  step;  check;  accept.
   double next_output = output_time(next_index_);
@@ -538,6 +547,10 @@ int Simulation::advance(const io::Checkpoint& ck) {
     }
     model_->accept();
     last_dt_ = dt;
+    // between accepted steps: the model may change its layout (the domain manager)
+    const auto t3 = Clock::now();
+    model_->adapt();
+    phase_seconds_["layout"] += std::chrono::duration<double>(Clock::now() - t3).count();
     if (model_->time() >= next_output - eps_t) {
       write_output();
       next_output = output_time(++next_index_);

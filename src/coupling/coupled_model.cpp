@@ -1,5 +1,9 @@
 #include "granflow/coupling/coupled_model.hpp"
 
+#include "granflow/coupling/conversion.hpp"
+#include "granflow/coupling/domain_manager.hpp"
+#include "granflow/coupling/factory.hpp"
+
 #include "granflow/io/fields.hpp"
 #include "granflow/params/parameters.hpp"
 
@@ -7,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <sstream>
 
@@ -18,35 +23,68 @@ namespace granflow::coupling {
 Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
   static Teuchos::RCP<const Teuchos::ParameterList> valid = [] {
     using namespace params;
+    const Decomposition d;  // the defaults
     auto pl = Teuchos::rcp(new Teuchos::ParameterList("Decomposition"));
-    add_enum(*pl, "Layout", "Static",
+    add_enum(*pl, "Layout", d.layout,
              "Static: the subdomains of 'Models' split at 'Interfaces'; A priori: a DAM run of "
              "the whole scene first computes eps = 1/Fr^2 and the model is 2D wherever "
-             "eps >= 'Shallowness threshold' (plus 'Margin'), 1D elsewhere (paper section 4.1)",
-             {"Static", "A priori"});
+             "eps >= 'Shallowness threshold' (plus 'Margin'), 1D elsewhere (paper section 4.1); "
+             "Dynamic: the domain manager moves the interfaces while the run goes on, starting "
+             "from 'Initial layout' (docs/numerics.md, 'Domain manager')",
+             {"Static", "A priori", "Dynamic"});
     auto kinds = Teuchos::rcp(new Teuchos::StringValidator(Teuchos::tuple<std::string>("1D", "2D")));
-    pl->set("Models", Teuchos::Array<std::string>(Teuchos::tuple<std::string>("2D", "1D", "2D")),
+    pl->set("Models", Teuchos::Array<std::string>(d.models.begin(), d.models.end()),
             "model of each subdomain from upstream to downstream: 1D (DAM) or 2D (N-DAM); one "
-            "more entry than 'Interfaces' (Static layout)",
+            "more entry than 'Interfaces' (Static layout, and a Dynamic one that starts from it)",
             Teuchos::rcp(new Teuchos::ArrayStringValidator(kinds)));
     auto pos = Teuchos::rcp(new Teuchos::EnhancedNumberValidator<double>(0.0, 1e6));
-    pl->set("Interfaces", Teuchos::Array<double>(Teuchos::tuple<double>(0.2, 0.7)),
+    pl->set("Interfaces", Teuchos::Array<double>(d.interfaces.begin(), d.interfaces.end()),
             "[m] interface positions, non-decreasing in [0, L] (Static layout); the paper's "
             "Setup I/II layout is {0.2, 0.7}. A subdomain of zero length (equal neighbouring "
             "positions, or a position at 0 or L) is left out and same-model neighbours that then "
             "touch become one subdomain: {2D, 1D, 2D} with {a, a} is the full 2D model",
             Teuchos::rcp(new Teuchos::ArrayNumberValidator<double>(pos)));
-    add_double(*pl, "Shallowness threshold", 0.1,
-               "A priori layout: 2D wherever eps = 1/Fr^2 reaches this at any output time of the "
-               "DAM run (the paper's minimum requirement at an interface is eps < 0.1)",
+    add_double(*pl, "Shallowness threshold", d.eps_threshold,
+               "A priori and Dynamic layouts: 2D wherever the shallowness parameter eps reaches "
+               "this (a priori: eps = 1/Fr^2 at any output time of the DAM run; dynamic: at a "
+               "check, see 'Lower threshold'). The paper's minimum requirement at an interface "
+               "is eps < 0.1",
                1e-6, 1e6);
-    add_double(*pl, "Margin", 0.05,
-               "[m] A priori layout: each 2D region is widened by this on both sides (the paper: "
-               "'somewhat greater than suggested by the one-dimensional simulation')",
+    add_double(*pl, "Margin", d.margin,
+               "[m] each 2D region is widened by this on both sides (the paper: 'somewhat greater "
+               "than suggested by the one-dimensional simulation'); in a Dynamic layout also how "
+               "far inside 2D a shock or a rise of eps is kept",
                0.0, 1e6);
-    add_double(*pl, "Minimum length", 0.05,
-               "[m] A priori layout: shorter 1D gaps and end pieces become 2D", 0.0, 1e6);
-    add_enum(*pl, "Interface pressure", "Rheology",
+    add_double(*pl, "Minimum length", d.min_length,
+               "[m] A priori and Dynamic layouts: shorter 1D gaps and end pieces become 2D, and a "
+               "2D subdomain is never made shorter than this",
+               0.0, 1e6);
+    add_enum(*pl, "Initial layout", d.initial_layout,
+             "Dynamic layout: where the run starts: Static ('Models' and 'Interfaces', e.g. the "
+             "paper's layout) or A priori (the layout of a DAM run, as Layout = A priori)",
+             {"Static", "A priori"});
+    add_double(*pl, "Lower threshold", d.eps_lower,
+               "Dynamic layout: a 2D column may become 1D only where eps stays below this for "
+               "'Hold time' (hysteresis between this and 'Shallowness threshold', so that "
+               "interfaces do not flicker); must be below 'Shallowness threshold'",
+               0.0, 1e6);
+    add_double(*pl, "Hold time", d.hold_time,
+               "[s] Dynamic layout: how long eps must stay below 'Lower threshold' before a 2D "
+               "column becomes 1D",
+               0.0, 1e6);
+    add_double(*pl, "Check interval", d.check_interval,
+               "[s] Dynamic layout: time between two evaluations of the layout (at the end of "
+               "the first accepted step at or after each multiple)",
+               1e-9, 1e6);
+    add_double(*pl, "Rest speed", d.rest_speed,
+               "[m/s] Dynamic layout: material moving slower than this (|u_mean|) is at rest: a "
+               "deposit, which stays 2D (eps = |w|/|u| is 0/0 there and 1/Fr^2 infinite)",
+               0.0, 1e6);
+    add_bool(*pl, "Shock indicator", d.shock_indicator,
+             "Dynamic layout: a shock on the 1D side (u_mean drops across a column by more "
+             "than the wave speed sqrt(beta h), to less than half its upstream value) counts as "
+             "2D whatever its eps (false: eps and rest alone decide)");
+    add_enum(*pl, "Interface pressure", d.interface_pressure,
              "how the pressure of eq. (26), p = g cos(zeta)(h - z)(1 + K_act)/2, enters the first "
              "2D column behind a 1D-to-2D interface: Rheology: the column stays in the "
              "projection (div u = 0) and eq. (26) is the pressure of its yield stress; Dirichlet: "
@@ -80,7 +118,17 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   d.margin = pl.get<double>("Margin");
   d.min_length = pl.get<double>("Minimum length");
   d.interface_pressure = pl.get<std::string>("Interface pressure");
-  if (d.layout == "Static") {
+  d.initial_layout = pl.get<std::string>("Initial layout");
+  d.eps_lower = pl.get<double>("Lower threshold");
+  d.hold_time = pl.get<double>("Hold time");
+  d.check_interval = pl.get<double>("Check interval");
+  d.rest_speed = pl.get<double>("Rest speed");
+  d.shock_indicator = pl.get<bool>("Shock indicator");
+  if (d.layout == "Dynamic" && !(d.eps_lower < d.eps_threshold))
+    params::fail(pl, "Lower threshold", params::str(d.eps_lower),
+                 "must be below 'Shallowness threshold' = " + params::str(d.eps_threshold) +
+                     " (the hysteresis between the two keeps interfaces from flickering)");
+  if (d.layout == "Static" || (d.layout == "Dynamic" && d.initial_layout == "Static")) {
     if (d.models.size() != d.interfaces.size() + 1)
       params::fail(pl, "Models", Teuchos::toString(models),
                    "needs exactly one entry more than 'Interfaces' = " + list(d.interfaces) +
@@ -137,10 +185,74 @@ std::array<double, 2> Decomposition::extent(std::size_t i, double length) const 
 // ---------------------------------------------------------------------------------------------
 // CoupledModel
 // ---------------------------------------------------------------------------------------------
-CoupledModel::CoupledModel(std::vector<Subdomain> parts)
-    : parts_(std::move(parts)), iface_mass_(parts_.empty() ? 0 : parts_.size() - 1, {0.0, 0.0}) {
+CoupledModel::CoupledModel(std::vector<Subdomain> parts, const InterfaceOptions& options,
+                           std::shared_ptr<const SubdomainFactory> factory)
+    : parts_(std::move(parts)), options_(options), factory_(std::move(factory)) {
   if (parts_.empty()) throw std::invalid_argument("CoupledModel: no subdomains");
+  for (const auto& p : parts_) initial_mass_ += p.model->mass_balance().initial;
+  reconnect();
 }
+
+CoupledModel::~CoupledModel() = default;
+
+void CoupledModel::reconnect() {
+  interfaces_.clear();
+  for (std::size_t i = 0; i + 1 < parts_.size(); ++i) {
+    interfaces_.push_back(std::make_unique<Interface>(parts_[i], parts_[i + 1], options_));
+    interfaces_.back()->connect();
+  }
+  // Step order: along the channel, except that the upstream side of an interface whose
+  // downstream side reads its tentative step goes first (interface.hpp). Such constraints
+  // only point downstream, so a part is stepped once everything it waits for has been.
+  step_order_.clear();
+  std::vector<char> done(parts_.size(), 0);
+  while (step_order_.size() < parts_.size())
+    for (std::size_t i = 0; i < parts_.size(); ++i) {
+      if (done[i]) continue;
+      if (i > 0 && interfaces_[i - 1]->upstream_steps_first() && !done[i - 1]) continue;
+      done[i] = 1;
+      step_order_.push_back(i);
+    }
+}
+
+void CoupledModel::replace_parts(std::size_t first, std::size_t count,
+                                 std::vector<Subdomain> with) {
+  if (count == 0 || first + count > parts_.size() || with.empty())
+    throw std::invalid_argument("CoupledModel::replace_parts: no parts to replace");
+  const double a = parts_[first].x0, b = parts_[first + count - 1].x1;
+  if (with.front().x0 != a || with.back().x1 != b)
+    throw std::invalid_argument("CoupledModel::replace_parts: the new parts must cover [" +
+                                params::str(a) + ", " + params::str(b) + "]");
+  // The run's inflow and outflow booked by a replaced end part stay booked; what its
+  // successor reports is added on top.
+  if (first == 0)
+    retired_inflow_ += parts_.front().model->mass_balance().inflow -
+                       with.front().model->mass_balance().inflow;
+  if (first + count == parts_.size())
+    retired_outflow_ += parts_.back().model->mass_balance().outflow -
+                        with.back().model->mass_balance().outflow;
+  interfaces_.clear();  // they point into the parts
+  parts_.erase(parts_.begin() + static_cast<std::ptrdiff_t>(first),
+               parts_.begin() + static_cast<std::ptrdiff_t>(first + count));
+  parts_.insert(parts_.begin() + static_cast<std::ptrdiff_t>(first),
+                std::make_move_iterator(with.begin()), std::make_move_iterator(with.end()));
+  reconnect();
+}
+
+Decomposition CoupledModel::layout() const {
+  Decomposition d;
+  d.models.clear();  // the defaults are the paper's layout
+  d.interfaces.clear();
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    d.models.push_back(parts_[i].kind);
+    if (i > 0) d.interfaces.push_back(parts_[i].x0);
+  }
+  return d;
+}
+
+void CoupledModel::set_domain_manager(std::unique_ptr<DomainManager> m) { manager_ = std::move(m); }
+
+bool CoupledModel::adapt() { return manager_ && manager_->adapt(*this); }
 
 double CoupledModel::stable_dt() const {
   double dt = std::numeric_limits<double>::infinity();
@@ -149,9 +261,8 @@ double CoupledModel::stable_dt() const {
 }
 
 void CoupledModel::step(double dt) {
-  // Every subdomain steps from the states at t: the interface callbacks read neighbours that
-  // have not accepted their new state yet.
-  for (auto& p : parts_) p.model->step(dt);
+  // Every subdomain steps from the states at t, in the order of the interface contract.
+  for (std::size_t i : step_order_) parts_[i].model->step(dt);
 }
 
 core::Health CoupledModel::check() const {
@@ -168,10 +279,7 @@ core::Health CoupledModel::check() const {
 
 void CoupledModel::accept() {
   for (auto& p : parts_) p.model->accept();
-  for (std::size_t i = 0; i + 1 < parts_.size(); ++i) {
-    iface_mass_[i][0] += parts_[i].last_transfer()[1];
-    iface_mass_[i][1] += parts_[i + 1].last_transfer()[0];
-  }
+  for (auto& f : interfaces_) f->book();
   ++steps_;
 }
 
@@ -189,25 +297,77 @@ core::MassBalance CoupledModel::mass_balance() const {
   // Totals over the subdomains; what crosses an interior interface leaves one subdomain and
   // enters the next, so any mismatch of the two sides shows up in the defect.
   core::MassBalance m;
-  for (const auto& p : parts_) {
-    const auto q = p.model->mass_balance();
-    m.initial += q.initial;
-    m.current += q.current;
-  }
-  m.inflow = parts_.front().model->mass_balance().inflow;
-  m.outflow = parts_.back().model->mass_balance().outflow;
+  m.initial = initial_mass_;
+  for (const auto& p : parts_) m.current += p.model->mass_balance().current;
+  m.inflow = retired_inflow_ + parts_.front().model->mass_balance().inflow;
+  m.outflow = retired_outflow_ + parts_.back().model->mass_balance().outflow;
   return m;
 }
 
+// One channel-wide mesh per kind, whatever the layout, so that a field series stays one
+// series in ParaView while the interfaces move: "dam", the depth-averaged state h, u_mean, hu
+// and the model (1 or 2) of every DAM-sized cell of [0, L] (from the 1D cells and the 2D
+// columns alike); "ndam", the 2D fields on the channel-wide 2D grid, with flag -1 (and zero
+// fields) in the columns that are 1D at this output.
 void CoupledModel::write_fields(io::FieldWriter& w) const {
-  for (std::size_t i = 0; i < parts_.size(); ++i) {
+  const double L = parts_.back().x1;
+  const ChannelField f = channel_field(parts_, 0, parts_.size());
+  const double dx1 = factory_ ? factory_->dx_1d() : parts_.front().x1 - parts_.front().x0;
+  const int n1 = static_cast<int>(std::lround(L / dx1));
+  std::vector<double> xn(static_cast<std::size_t>(n1 + 1)), h, u, hu, model;
+  for (int j = 0; j <= n1; ++j) xn[static_cast<std::size_t>(j)] = j == n1 ? L : j * dx1;
+  for (int j = 0; j < n1; ++j) {
+    const double a = xn[static_cast<std::size_t>(j)], b = xn[static_cast<std::size_t>(j + 1)];
+    const auto v = f.average(a, b);
+    h.push_back(v[0]);
+    hu.push_back(v[1]);
+    u.push_back(v[0] > 0.0 ? v[1] / v[0] : 0.0);
+    const double xc = 0.5 * (a + b);
+    std::size_t p = 0;
+    while (p + 1 < parts_.size() && xc > parts_[p].x1) ++p;
+    model.push_back(parts_[p].one_d() ? 1.0 : 2.0);
+  }
+  auto& m1 = w.add_mesh("dam", std::move(xn), {0.0, 1.0});
+  m1.cell_fields.emplace_back("h", h);
+  m1.cell_fields.emplace_back("u", u);
+  m1.cell_fields.emplace_back("hu", hu);
+  m1.cell_fields.emplace_back("model", model);
+  if (!factory_ || !factory_->has_2d()) return;
+  const auto& g = factory_->two_d().cfg.grid;
+  const double dx2 = factory_->dx_2d();
+  const int nx = static_cast<int>(std::lround(L / dx2)), nz = g.nz;
+  std::vector<double> x2(static_cast<std::size_t>(nx + 1)), z2(static_cast<std::size_t>(nz + 1));
+  for (int i = 0; i <= nx; ++i) x2[static_cast<std::size_t>(i)] = i == nx ? L : i * dx2;
+  for (int k = 0; k <= nz; ++k) z2[static_cast<std::size_t>(k)] = k * g.dz();
+  std::vector<std::pair<std::string, std::vector<double>>> fields;
+  for (const auto& p : parts_) {
+    if (!p.ndam) continue;
     io::FieldWriter part;
-    parts_[i].model->write_fields(part);
-    for (const auto& m : part.meshes()) {
-      auto& copy = w.add_mesh(m.name + "_" + std::to_string(i), m.x_nodes, m.z_nodes);
-      copy.cell_fields = m.cell_fields;
+    p.model->write_fields(part);
+    const auto& mesh = part.meshes().front();
+    const int nxp = static_cast<int>(mesh.x_nodes.size()) - 1;
+    const int off = static_cast<int>(std::lround(p.x0 / dx2));
+    for (const auto& [name, values] : mesh.cell_fields) {
+      auto it = std::find_if(fields.begin(), fields.end(),
+                             [&](const auto& q) { return q.first == name; });
+      if (it == fields.end()) {
+        fields.emplace_back(name, std::vector<double>(static_cast<std::size_t>(nx * nz),
+                                                      name == "flag" ? -1.0 : 0.0));
+        it = fields.end() - 1;
+      }
+      for (int k = 0; k < nz; ++k)
+        for (int i = 0; i < nxp && off + i < nx; ++i)
+          it->second[static_cast<std::size_t>(k * nx + off + i)] =
+              values[static_cast<std::size_t>(k * nxp + i)];
     }
   }
+  if (fields.empty()) {  // no 2D part at this output: the same fields, all 1D columns
+    for (const char* name : {"u", "w", "p", "p_Pa", "nu_eff", "div_u", "flag"})
+      fields.emplace_back(name, std::vector<double>(static_cast<std::size_t>(nx * nz),
+                                                    std::string(name) == "flag" ? -1.0 : 0.0));
+  }
+  auto& m2 = w.add_mesh("ndam", std::move(x2), std::move(z2));
+  m2.cell_fields = std::move(fields);
 }
 
 void CoupledModel::save(io::Checkpoint& c) const {
@@ -219,12 +379,54 @@ void CoupledModel::save(io::Checkpoint& c) const {
     for (const auto& [k, v] : part.arrays()) c.set(pre + k, v);
   }
   c.set("coupled/steps", static_cast<double>(steps_));
-  for (std::size_t i = 0; i < iface_mass_.size(); ++i)
-    c.set("coupled/interface" + std::to_string(i),
-          std::vector<double>{iface_mass_[i][0], iface_mass_[i][1]});
+  // the decomposition: model of each part (1 or 2) and the interface positions
+  std::vector<double> kinds, xs;
+  for (const auto& p : parts_) kinds.push_back(p.one_d() ? 1.0 : 2.0);
+  for (std::size_t i = 1; i < parts_.size(); ++i) xs.push_back(parts_[i].x0);
+  c.set("coupled/models", kinds);
+  c.set("coupled/interfaces", xs);
+  c.set("coupled/ledger", std::vector<double>{initial_mass_, retired_inflow_, retired_outflow_});
+  if (manager_) manager_->save(c);
+  for (std::size_t i = 0; i < interfaces_.size(); ++i) {
+    const auto m = interfaces_[i]->mass();
+    c.set("coupled/interface" + std::to_string(i), std::vector<double>{m[0], m[1]});
+  }
 }
 
 void CoupledModel::load(const io::Checkpoint& c) {
+  // The layout of the checkpoint must be this model's (a changed scene is refused).
+  if (c.arrays().count("coupled/models")) {
+    const auto& kinds = c.array("coupled/models");
+    const auto& xs = c.array("coupled/interfaces");
+    bool same = kinds.size() == parts_.size() && xs.size() + 1 == parts_.size();
+    for (std::size_t i = 0; same && i < parts_.size(); ++i) {
+      same = (kinds[i] == 1.0) == parts_[i].one_d();
+      if (same && i > 0) same = std::abs(xs[i - 1] - parts_[i].x0) <= 1e-12;
+    }
+    if (!same && manager_ && factory_) {
+      // A dynamic run: the parts of the checkpoint's layout, then their states below.
+      std::vector<Subdomain> rebuilt;
+      const double L = factory_->length();
+      for (std::size_t i = 0; i < kinds.size(); ++i) {
+        const double x0 = i == 0 ? 0.0 : xs[i - 1], x1 = i + 1 == kinds.size() ? L : xs[i];
+        rebuilt.push_back(factory_->initial(kinds[i] == 1.0 ? "1D" : "2D", x0, x1,
+                                            Neighbours{i > 0, i + 1 < kinds.size()}));
+      }
+      replace_parts(0, parts_.size(), std::move(rebuilt));
+      same = true;
+    }
+    if (!same) {
+      std::string saved, here;
+      for (std::size_t i = 0; i < kinds.size(); ++i)
+        saved += (i ? " | " : "") + std::string(kinds[i] == 1.0 ? "1D" : "2D") +
+                 (i + 1 < kinds.size() ? " " + params::str(xs[i]) : "");
+      for (std::size_t i = 0; i < parts_.size(); ++i)
+        here += (i ? " | " : "") + parts_[i].kind +
+                (i + 1 < parts_.size() ? " " + params::str(parts_[i].x1) : "");
+      throw params::InputError("checkpoint layout (" + saved +
+                               ") differs from the scene's (" + here + ")");
+    }
+  }
   for (std::size_t i = 0; i < parts_.size(); ++i) {
     io::Checkpoint part;
     const std::string pre = "part" + std::to_string(i) + "/";
@@ -235,9 +437,20 @@ void CoupledModel::load(const io::Checkpoint& c) {
     parts_[i].model->load(part);
   }
   steps_ = static_cast<long>(c.scalar("coupled/steps"));
-  for (std::size_t i = 0; i < iface_mass_.size(); ++i) {
+  if (c.arrays().count("coupled/ledger")) {
+    const auto& l = c.array("coupled/ledger");
+    initial_mass_ = l.at(0);
+    retired_inflow_ = l.at(1);
+    retired_outflow_ = l.at(2);
+  } else {
+    initial_mass_ = 0.0;
+    for (const auto& p : parts_) initial_mass_ += p.model->mass_balance().initial;
+  }
+  if (manager_) manager_->load(c);
+  // the interfaces stay connected (reconnecting would reset the 2D inflow's state)
+  for (std::size_t i = 0; i < interfaces_.size(); ++i) {
     const auto& v = c.array("coupled/interface" + std::to_string(i));
-    iface_mass_[i] = {v.at(0), v.at(1)};
+    interfaces_[i]->restore({v.at(0), v.at(1)});
   }
 }
 
@@ -250,14 +463,17 @@ void CoupledModel::report(nlohmann::json& s) const {
     parts.push_back({{"model", p.kind}, {"x0", p.x0}, {"x1", p.x1}, {"statistics", q},
                      {"mass", mb.current}, {"mass_defect", mb.defect()}});
   }
-  for (std::size_t i = 0; i < iface_mass_.size(); ++i)
-    ifaces.push_back({{"x", parts_[i].x1},
-                      {"upstream", parts_[i].kind},
-                      {"downstream", parts_[i + 1].kind},
-                      {"mass_out_of_upstream", iface_mass_[i][0]},
-                      {"mass_into_downstream", iface_mass_[i][1]},
-                      {"mismatch", iface_mass_[i][1] - iface_mass_[i][0]}});
+  for (const auto& f : interfaces_) {
+    const auto m = f->mass();
+    ifaces.push_back({{"x", f->x()},
+                      {"upstream", f->upstream().kind},
+                      {"downstream", f->downstream().kind},
+                      {"mass_out_of_upstream", m[0]},
+                      {"mass_into_downstream", m[1]},
+                      {"mismatch", m[1] - m[0]}});
+  }
   s["coupled"] = {{"subdomains", parts}, {"interfaces", ifaces}, {"steps", steps_}};
+  if (manager_) manager_->report(s["coupled"]);
 }
 
 }  // namespace granflow::coupling

@@ -35,7 +35,7 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
     const DamConfig d;
     add_int(*pl, "Cells", d.cells, "N: number of cells of the primary grid on the channel", 4,
             100000000);
-    add_enum(*pl, "Scheme", "Minmod",
+    add_enum(*pl, "Scheme", to_string(d.scheme),
              "NOC slope reconstruction: Minmod (TVD, for shocks, fronts and deposits) or "
              "Beam-Warming (the paper's limiter-free variant for smooth supercritical flow; "
              "oscillates at shocks)",
@@ -44,7 +44,7 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
                "Courant number dt max(|u| + sqrt(beta h)) / dx; the staggered central scheme is "
                "stable up to 0.5",
                1e-3, 0.5);
-    add_enum(*pl, "Earth pressure", "Savage-Hutter",
+    add_enum(*pl, "Earth pressure", to_string(d.earth_pressure),
              "K: Savage-Hutter (active where u_x > 0, passive where u_x < 0, smoothed switch), "
              "Active, Passive (K fixed at one value), or Isotropic (K = 1, shallow water)",
              {"Savage-Hutter", "Active", "Passive", "Isotropic"});
@@ -441,7 +441,7 @@ core::Health DamSolver::check() const {
     if (!std::isfinite(hu_new_[k])) { bad("hu", hu_new_[k], "discharge is not finite"); return hl; }
     if (h_new_[k] < 0.0) { bad("h", h_new_[k], "negative depth"); return hl; }
     const double uv = velocity(h_new_[k], hu_new_[k]);
-    if (std::abs(uv) > 1.0e4) { bad("u", uv, "velocity above 1e4 m/s"); return hl; }
+    if (std::abs(uv) > core::kMaxVelocity) { bad("u", uv, core::kMaxVelocityReason); return hl; }
   }
   return hl;
 }
@@ -524,7 +524,7 @@ core::Profile DamSolver::profile() const {
     const auto k = static_cast<std::size_t>(j);
     const double u = velocity(h[k], hu[k]);
     // shallowness eps = 1/Fr^2 = beta h / u^2 (paper section 4.1), with beta from the local K;
-    // dry cells report 0, resting material is capped at 1e6.
+    // dry cells report 0, resting material is capped at core::kEpsCap.
     const int jm = std::max(j - 1, 0), jp = std::min(j + 1, n_ - 1);
     const auto km = static_cast<std::size_t>(jm), kp = static_cast<std::size_t>(jp);
     const double ux = wet_ux(velocity(h[km], hu[km]), h[km] > cfg_.dry_depth, j - jm, u,
@@ -532,7 +532,7 @@ core::Profile DamSolver::profile() const {
     double eps = 0.0;
     if (h[k] > cfg_.dry_depth) {
       const double beta = phys_.g_cos * phys_.K(ux);
-      eps = u != 0.0 ? std::min(1.0e6, beta * h[k] / (u * u)) : 1.0e6;
+      eps = u != 0.0 ? std::min(core::kEpsCap, beta * h[k] / (u * u)) : core::kEpsCap;
     }
     p.append(x0_ + (j + 0.5) * dx_, h[k] > cfg_.dry_depth ? h[k] : 0.0, u, eps, "1D");
   }
@@ -606,6 +606,24 @@ void DamSolver::report(nlohmann::json& s) const {
               {"positivity_fixes", positivity_fixes_},
               {"K_active", phys_.K_act},
               {"K_passive", phys_.K_pas}};
+}
+
+void DamSolver::set_boundary(int side, DamBoundary b) {
+  (side == 0 ? left_ : right_) = std::move(b);
+}
+
+void DamSolver::set_cells(std::vector<double> h, std::vector<double> hu, double t, long steps,
+                          bool staggered) {
+  if (h.size() != static_cast<std::size_t>(n_ + (staggered ? 1 : 0)) || hu.size() != h.size())
+    throw std::invalid_argument("DamSolver::set_cells: need one value per cell");
+  staggered_ = staggered;
+  h_ = std::move(h);
+  hu_ = std::move(hu);
+  t_ = t_new_ = t;
+  steps_ = steps;
+  mass0_ = mass();
+  mass_in_ = mass_out_ = 0.0;
+  last_transfer_ = {0.0, 0.0};
 }
 
 }  // namespace granflow::dam

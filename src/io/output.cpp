@@ -164,10 +164,11 @@ std::string read_string(std::size_t size, const std::function<herr_t(hid_t, void
 std::string read_text(hid_t loc, const std::string& name) {
   H5Handle ds(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
   H5Handle ft(H5Dget_type(ds.id), H5Tclose, "read the type of " + name);
-  if (H5Tget_class(ft.id) != H5T_STRING) throw std::runtime_error("HDF5: " + name + " is not a string");
-  return read_string(H5Tget_size(ft.id),
-                     [&](hid_t t, void* b) { return H5Dread(ds.id, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, b); },
-                     name);
+  if (H5Tget_class(ft.id) != H5T_STRING)
+    throw std::runtime_error("HDF5: " + name + " is not a string");
+  return read_string(
+      H5Tget_size(ft.id),
+      [&](hid_t t, void* b) { return H5Dread(ds.id, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, b); }, name);
 }
 
 void write_string_attr(hid_t loc, const std::string& name, const std::string& v) {
@@ -264,13 +265,15 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
         FieldWriter::Mesh mesh{m, read_dataset(mg.id, "x_nodes"), read_dataset(mg.id, "z_nodes"),
                                {}};
         for (const auto& fld : children(mg.id))
-          if (fld != "x_nodes" && fld != "z_nodes") mesh.cell_fields.emplace_back(fld, std::vector<double>{});
+          if (fld != "x_nodes" && fld != "z_nodes")
+            mesh.cell_fields.emplace_back(fld, std::vector<double>{});
         meshes.push_back(std::move(mesh));
       }
       layouts_.push_back(std::move(meshes));
       // step_NNNNNN: the next snapshot gets the next number after the largest kept one.
       const auto k = s.rfind('_');
-      if (k != std::string::npos) next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(k + 1)) + 1);
+      if (k != std::string::npos)
+        next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(k + 1)) + 1);
     }
     H5Fflush(f.id, H5F_SCOPE_GLOBAL);
     write_xdmf();
@@ -473,13 +476,15 @@ Checkpoint read_checkpoint(const std::string& file) {
     }
     const std::string format = read_string_attr(f.id, "format");
     if (format != kFormat)
-      throw CheckpointError("'" + file + "' has the format '" + format + "'; this granflow reads '" +
-                            kFormat + "'");
+      throw CheckpointError("'" + file + "' has the format '" + format +
+                            "'; this granflow reads '" + kFormat + "'");
     stored = read_string_attr(f.id, "checksum");
     H5Handle s(H5Gopen2(f.id, "scalars", H5P_DEFAULT), H5Gclose, "open group scalars");
     for (const auto& k : children(s.id)) {
       const auto v = read_dataset(s.id, k);
-      if (v.size() != 1) throw std::runtime_error("scalar " + dec(k) + " has " + std::to_string(v.size()) + " values");
+      if (v.size() != 1)
+        throw std::runtime_error("scalar " + dec(k) + " has " + std::to_string(v.size()) +
+                                 " values");
       c.set(dec(k), v[0]);
     }
     H5Handle a(H5Gopen2(f.id, "arrays", H5P_DEFAULT), H5Gclose, "open group arrays");

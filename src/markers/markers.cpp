@@ -1,6 +1,6 @@
-// Free-surface marker particles of the N-DAM (see include/granflow/ndam/markers.hpp and
+// Free-surface marker particles of the N-DAM (see include/granflow/markers/markers.hpp and
 // docs/numerics.md, "Free surface: markers").
-#include "granflow/ndam/markers.hpp"
+#include "granflow/markers/markers.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +13,9 @@ namespace {
 constexpr int G = Field::G;
 constexpr long long kInjectedIdBase = 1LL << 62;  // ids of injected markers start here
 constexpr int kLeft = 0, kRight = 1, kBottom = 2, kTop = 3;
+// [rows] an opening h_in within this of a row boundary ends at that row: h_in / s_z is computed
+// in floating point, and an opening of exactly R rows must not get an empty row R + 1.
+constexpr double kRowRoundOff = 1e-9;
 
 // Largest double below v (keeps a reflected or clamped coordinate strictly inside [0, L)).
 double below(double v) { return std::nextafter(v, -1.0e300); }
@@ -118,7 +121,7 @@ void MarkerSet::inject_rows(double dt, double h_in,
   if (slab_.i0 != 0 || h_in <= 0.0 || dt <= 0.0) return;
   const double sz = spacing_z(), a = marker_area();
   const double top = std::min(h_in, grid_.lz);
-  const int rows = std::max(0, static_cast<int>(std::ceil(top / sz - 1e-9)));
+  const int rows = std::max(0, static_cast<int>(std::ceil(top / sz - kRowRoundOff)));
   if (static_cast<int>(acc_.size()) < rows) acc_.resize(static_cast<std::size_t>(rows), 0.0);
   const double xmax = below(std::min(dx_, grid_.lx));
   for (int r = 0; r < rows; ++r) {
@@ -350,17 +353,12 @@ void MarkerSet::update_flags(std::vector<CellFlag>& flags, std::vector<std::uint
     for (int k = 0; k < nz; ++k) {
       const std::size_t c = static_cast<std::size_t>(i * nz + k);
       if (obstacle[c]) { flags[c] = CellFlag::Obstacle; continue; }
-      if (count[c] == 0) { flags[c] = CellFlag::Empty; continue; }
       const int l = i > 0 ? full[c - static_cast<std::size_t>(nz)] : gl[static_cast<std::size_t>(k)];
       const int r = i < nxl - 1 ? full[c + static_cast<std::size_t>(nz)] : gr[static_cast<std::size_t>(k)];
       const int b = k > 0 ? full[c - 1] : 1;
       const int t = k < nz - 1 ? full[c + 1] : 1;
       std::uint8_t mask = 0;
-      if (!l) mask |= empty_side::Left;
-      if (!r) mask |= empty_side::Right;
-      if (!b) mask |= empty_side::Bottom;
-      if (!t) mask |= empty_side::Top;
-      flags[c] = mask ? CellFlag::Surface : CellFlag::Fluid;
+      flags[c] = classify_cell(count[c] > 0, !l, !r, !b, !t, mask);
       if (empty_sides) (*empty_sides)[c] = mask;
     }
 }

@@ -24,6 +24,45 @@ WallKind parse_wall(const std::string& s) {
 }
 }  // namespace
 
+const char* to_string(Momentum m) { return m == Momentum::Explicit ? "Explicit" : "Implicit"; }
+const char* to_string(PressureCoupling c) {
+  return c == PressureCoupling::Nonlinear ? "Nonlinear" : "Lagged";
+}
+const char* to_string(WallKind k) { return kWallKinds[static_cast<std::size_t>(k)].c_str(); }
+
+Teuchos::ParameterList NdamConfig::default_momentum_solver() {
+  return *solvers::LinearSystem::getValidParameters("N-DAM->Momentum solver", "GMRES",
+                                                    "Ifpack2 RELAXATION", 1e-10);
+}
+
+Teuchos::ParameterList NdamConfig::default_pressure_solver() {
+  return *solvers::LinearSystem::getValidParameters("N-DAM->Pressure solver", "CG", "MueLu",
+                                                    1e-10);
+}
+
+// The Newton solver of the pressure system: NonlinearSystem's list with the defaults that suit
+// the fixed-point form R(q) = (q - P(q)) / p_ref (p_ref: see docs/numerics.md). Its Jacobian
+// I - dP/dq is the identity plus the yield-stress coupling, so no preconditioner is needed (the
+// Poisson operator is already inverted inside P) and GMRES converges in a few iterations;
+// Jacobian-free because P contains the momentum and pressure solves.
+Teuchos::ParameterList NdamConfig::default_pressure_newton() {
+  Teuchos::ParameterList nl = *solvers::NonlinearSystem::getValidParameters();
+  auto redefault = [&nl](const std::string& name, auto value) {
+    const auto& e = nl.getEntry(name);
+    const auto validator = e.validator();
+    const std::string doc = e.docString();
+    nl.set(name, value, doc, validator);
+  };
+  redefault("Method", std::string("Jacobian-free Newton-Krylov"));
+  redefault("Preconditioner", std::string("None"));
+  redefault("Absolute tolerance", 1e-5);
+  redefault("Relative tolerance", 1e-2);
+  redefault("Max Newton iterations", 10);
+  redefault("Krylov tolerance", 1e-2);
+  redefault("Max Krylov iterations", 50);
+  return nl;
+}
+
 Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
   static Teuchos::RCP<const Teuchos::ParameterList> valid = [] {
     using namespace params;
@@ -38,7 +77,7 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
                "Lz [m]: height of the box normal to the slope. The paper leaves the domain height "
                "open; 0.15 m holds the 0.11 m deposit of its Setup II",
                1e-6, 1e6);
-    add_enum(*pl, "Momentum", "Implicit",
+    add_enum(*pl, "Momentum", to_string(d.momentum),
              "Explicit: the paper's scheme, viscous stress at t^n (dt also limited by the "
              "viscous condition); Implicit: viscous stress at t^{n+1} with nu_eff lagged, "
              "solved with Belos (dt from the advective CFL condition alone; the default for "
@@ -53,51 +92,50 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
                "donor-cell upwinding (1), NaSt2D's form; stability needs gamma >= "
                "max(|u| dt/dx, |w| dt/dz), i.e. gamma >= CFL",
                0.0, 1.0);
-    add_string(*pl, "Obstacles", "",
+    add_string(*pl, "Obstacles", "",  // d.obstacles: none
                "rigid obstacles inside the box as rectangles 'x0 x1 z0 z1' [m], separated by "
                "';' (e.g. '0.4 0.6 0 0.05; 0.8 0.9 0 0.1'): cells whose centre lies inside are "
                "obstacle cells with no-slip surfaces. Empty: none. The fluid cells must form "
                "one connected region");
     auto& b = pl->sublist("Boundaries", false,
                           "boundary condition of each side of the box [0, L] x [0, Height]");
-    for (const char* s : kSideNames) {
-      const std::string side(s);
+    for (int s = 0; s < 4; ++s) {
+      const std::string side(kSideNames[s]);
       const bool z_side = side == "Bottom" || side == "Top";
-      add_enum(b, side, side == "Top" ? "Free-slip" : "No-slip",
+      const Wall& dw = d.walls[static_cast<std::size_t>(s)];
+      add_enum(b, side, to_string(dw.kind),
                side + " side: No-slip wall, Free-slip wall, Moving lid (no-slip wall moving "
                       "tangentially with '" + side + " lid velocity'), Periodic (Left and "
                       "Right together only), or Coulomb (Bottom and Right only: the sliding law "
                       "(11)-(13) with delta = Material->Bed friction angle and 'Friction "
                       "regularisation' m_c)",
                kWallKinds);
-      add_double(b, side + " lid velocity", 0.0,
+      add_double(b, side + " lid velocity", dw.velocity,
                  std::string("[m/s] tangential velocity of a Moving lid on this side (") +
                      (z_side ? "u, along x" : "w, along z") + ")",
                  -1e6, 1e6);
     }
-    add_bool(*pl, "Free surface", false,
+    add_bool(*pl, "Free surface", d.free_surface,
              "track the material by marker particles (paper section 2.3): cells with markers "
              "are Fluid/Surface, the others Empty (p = 0); needed for a chute with Channel "
              "inflow/outflow. false: the box is full (cavity, rest tests)");
     add_int(*pl, "Markers per cell", d.markers_per_cell,
             "markers per cell along x and along z (n x n per cell) of the free surface", 1, 16);
-    add_double(*pl, "Initial depth", 0.0,
+    add_double(*pl, "Initial depth", d.initial_depth,
                "[m] free surface: material layer z < depth at t = 0 on [Initial x0, Initial x1) "
                "(0: the chute starts empty)",
                0.0, 1e6);
-    add_double(*pl, "Initial x0", 0.0, "[m] start of the initial layer along the slope", -1e6,
-               1e6);
-    add_double(*pl, "Initial x1", 1e30, "[m] end of the initial layer along the slope", -1e6,
-               1e30);
+    add_double(*pl, "Initial x0", d.initial_x0, "[m] start of the initial layer along the slope",
+               -1e6, 1e6);
+    add_double(*pl, "Initial x1", d.initial_x1, "[m] end of the initial layer along the slope",
+               -1e6, 1e30);
     add_double(*pl, "Friction regularisation", d.m_c,
                "m_c [s/m] of the Coulomb friction factor c_F = tan(delta) (1 - exp(-m_c |u_b|)) "
                "(eq. 12): friction is fully mobilised above a sliding speed of a few 1/m_c. "
                "The paper leaves m_c open; 100 s/m (1/m_c = 1 cm/s, well below the chute's "
                "0.4-3 m/s) is the default",
                1e-6, 1e9);
-    pl->set("Momentum solver",
-            *solvers::LinearSystem::getValidParameters("N-DAM->Momentum solver", "GMRES",
-                                                       "Ifpack2 RELAXATION", 1e-10),
+    pl->set("Momentum solver", d.momentum_solver,
             "Belos solver of the implicit viscous stress. GMRES by default: with a free surface "
             "the matrix is not symmetric (faces on the empty side of a Surface cell and the "
             "open outflow face follow neighbouring unknowns), and CG fails there (measured: "
@@ -108,11 +146,9 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
             "step, so an AMG setup per step cost more than the iterations it saves (Setup II: "
             "4-8 iterations with MueLu, 8-28 with SGS, about 6x less time). With MueLu, u and "
             "w are two equations per node ('number of equations' = 2)");
-    pl->set("Pressure solver",
-            *solvers::LinearSystem::getValidParameters("N-DAM->Pressure solver", "CG", "MueLu",
-                                                       1e-10),
+    pl->set("Pressure solver", d.pressure_solver,
             "Belos solver of the pressure Poisson equation (symmetric positive definite: CG)");
-    add_enum(*pl, "Pressure coupling", "Lagged",
+    add_enum(*pl, "Pressure coupling", to_string(d.pressure_coupling),
              "how the pressure enters the yield stress tau_y = tau_c + tau_p p and the Coulomb "
              "law (13): Lagged: at t^n (one predictor-projection per step); Nonlinear: at "
              "t^{n+1}, the paper's nonlinear pressure system (10)+(13)+(14), solved in every "
@@ -120,32 +156,13 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "predictor-projection; 'Pressure Newton'). With tau_p = 0 and no Coulomb side the "
              "system is linear and both are the same",
              {"Lagged", "Nonlinear"});
-    // The Newton solver of the pressure system: NonlinearSystem's list with the defaults that
-    // suit the fixed-point form R(q) = (q - P(q)) / p_ref (p_ref: see docs/numerics.md). Its
-    // Jacobian I - dP/dq is the identity plus the yield-stress coupling, so no preconditioner is
-    // needed (the Poisson operator is already inverted inside P) and GMRES converges in a few
-    // iterations; Jacobian-free because P contains the momentum and pressure solves.
-    Teuchos::ParameterList nl = *solvers::NonlinearSystem::getValidParameters();
-    auto redefault = [&nl](const std::string& name, auto value) {
-      const auto& e = nl.getEntry(name);
-      const auto validator = e.validator();
-      const std::string doc = e.docString();
-      nl.set(name, value, doc, validator);
-    };
-    redefault("Method", std::string("Jacobian-free Newton-Krylov"));
-    redefault("Preconditioner", std::string("None"));
-    redefault("Absolute tolerance", 1e-5);
-    redefault("Relative tolerance", 1e-2);
-    redefault("Max Newton iterations", 10);
-    redefault("Krylov tolerance", 1e-2);
-    redefault("Max Krylov iterations", 50);
-    pl->set("Pressure Newton", nl,
+    pl->set("Pressure Newton", d.pressure_newton,
             "NOX solver of the nonlinear pressure system ('Pressure coupling' = Nonlinear). The "
             "residual is R(q) = (q - P(q)) / (p_ref sqrt(N)), p_ref = g cos(zeta) Height, N the "
             "cells of the box: ||R||_2 is the RMS pressure mismatch relative to the hydrostatic "
             "pressure at the bottom of the box. A step whose Newton solve does not converge "
             "stops the run with a diagnosis");
-    add_enum(*pl, "Pressure Newton failure", "Stop",
+    add_enum(*pl, "Pressure Newton failure", d.newton_failure_continue ? "Continue" : "Stop",
              "what a step does whose nonlinear pressure solve does not reach its tolerance: "
              "Stop: the run stops with a diagnosis (the last good output and checkpoint are "
              "kept); Continue: the step keeps NOX's best iterate (smallest ||R|| found), prints a "

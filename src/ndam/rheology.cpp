@@ -25,14 +25,14 @@ Teuchos::RCP<const Teuchos::ParameterList> Rheology::getValidParameters() {
     using namespace params;
     auto pl = Teuchos::rcp(new Teuchos::ParameterList("Rheology"));
     const Rheology d;
-    add_enum(*pl, "Model", "Drucker-Prager",
+    add_enum(*pl, "Model", d.name(),
              "Newtonian: nu_eff = nu; Bingham: constant yield stress tau_y = 'Yield stress'; "
              "Drucker-Prager: tau_y = 'Yield stress' + sin(phi) p with phi the Material's "
              "internal friction angle (the paper's pressure-dependent yield stress, eq. 6)",
              {"Newtonian", "Bingham", "Drucker-Prager"});
     add_double(*pl, "Viscosity", d.nu,
                "nu [m^2/s]: constant kinematic viscosity (paper: 0.003 m^2/s)", 0.0, 1.0e6);
-    add_double(*pl, "Yield stress", 0.0,
+    add_double(*pl, "Yield stress", d.tau_c,
                "tau_c [m^2/s^2 = Pa / rho]: yield stress normalised by the bulk density "
                "(Bingham), or cohesion added to sin(phi) p (Drucker-Prager; 0 for dry grains)",
                0.0, 1.0e9);
@@ -70,9 +70,11 @@ Rheology Rheology::from_parameters(const Teuchos::ParameterList& pl,
       }
     }
   }
-  if (r.model != RheologyModel::Newtonian) r.tau_c = pl.get<double>("Yield stress");
-  if (r.model == RheologyModel::DruckerPrager)
-    r.tau_p = std::sin(core::deg2rad(material.internal_friction_deg));
+  // Each model sets both yield-stress coefficients (the struct's defaults are Drucker-Prager's).
+  r.tau_c = r.model != RheologyModel::Newtonian ? pl.get<double>("Yield stress") : 0.0;
+  r.tau_p = r.model == RheologyModel::DruckerPrager
+                ? std::sin(core::deg2rad(material.internal_friction_deg))
+                : 0.0;
   if (r.model == RheologyModel::Bingham && r.tau_c == 0.0 && r.nu == 0.0)
     params::fail(pl, "Viscosity", "0",
                  "a Bingham material with zero yield stress and zero viscosity has no stress; "

@@ -11,10 +11,14 @@
 #include "granflow/ndam/ndam_solver.hpp"
 #include "granflow/ndam/rheology.hpp"
 #include "granflow/coupling/build.hpp"
+#include "granflow/coupling/domain_manager.hpp"
 #include "granflow/params/parameters.hpp"
 
+#include <cmath>
 #include <filesystem>
 #include <sstream>
+
+#include <unistd.h>
 
 namespace granflow::scene {
 
@@ -27,6 +31,9 @@ const std::vector<std::string>& model_names() {
 }
 
 namespace {
+// Output times a run may have (End time / Interval); see check_output.
+constexpr double kMaxOutputTimes = 100000;
+
 void add_scene_header(ParameterList& pl, const std::string& model) {
   params::add_string(pl, "Name", "unnamed", "scene name, echoed in summary.json");
   params::add_string(pl, "Description", "", "free text: what the scene reproduces");
@@ -38,6 +45,45 @@ void add_scene_header(ParameterList& pl, const std::string& model) {
 }
 void add(ParameterList& pl, const RCP<const ParameterList>& sub, const std::string& doc) {
   pl.set(sub->name(), *sub, doc);
+}
+
+// The run directory must be one that the run can create or write into, and the output
+// schedule one that the run can write: both would otherwise fail (exit 4) only once the run
+// has started, after --check passed.
+void check_output(const core::RunControl& rc, const ParameterList& out) {
+  namespace fs = std::filesystem;
+  const std::string& dir = rc.directory;
+  if (dir.find_first_not_of(" \t\r\n") == std::string::npos)
+    params::fail(out, "Directory", params::shown(dir),
+                 "empty; allowed: the path of a directory (created if missing)");
+  // The deepest part of the path that exists must be a directory: the rest is created.
+  std::error_code ec;
+  fs::path existing = fs::path(dir);
+  while (!existing.empty() && !fs::exists(existing, ec)) existing = existing.parent_path();
+  if (existing.empty()) existing = ".";
+  if (!fs::is_directory(existing, ec))
+    params::fail(out, "Directory", params::shown(dir),
+                 existing == fs::path(dir)
+                     ? "exists and is not a directory; allowed: a directory, or a path to create"
+                     : "'" + existing.string() + "' is a file, so the directory cannot be "
+                                                 "created there; allowed: a path whose existing "
+                                                 "part is a directory");
+  if (access(existing.c_str(), W_OK | X_OK) != 0)
+    params::fail(out, "Directory", params::shown(dir),
+                 "'" + existing.string() + "' is not writable; allowed: a writable directory");
+  // Every output time writes a profiles block, a fields snapshot and the checkpoint, and the
+  // time step is shortened to hit it: more output times than this is a mistake in Interval
+  // (1e-9 s to 0.1 s would be 1e8 snapshots and 1e8 steps), not a run.
+  const double count = rc.end_time / rc.output_interval;
+  if (count > kMaxOutputTimes) {
+    std::ostringstream why;
+    why << "End time " << params::str(rc.end_time) << " s / Interval gives "
+        << params::str(std::floor(count)) << " output times (each writes profiles, fields and a "
+        << "checkpoint and ends a time step); allowed: at most " << params::str(kMaxOutputTimes)
+        << " output times, i.e. Interval >= " << params::str(rc.end_time / kMaxOutputTimes)
+        << " s for this End time";
+    params::fail(out, "Interval", params::str(rc.output_interval), why.str());
+  }
 }
 }  // namespace
 
@@ -73,23 +119,28 @@ Scene load(const std::string& file) {
   Scene s;
   s.file = file;
   s.dir = std::filesystem::path(file).parent_path().string();
-  auto user = params::read_xml(file);
-  user->setName("granflow");
-  // The model decides which sublists exist, so read and check it first.
+  // Values are converted strictly from the XML text (params::to_parameter_list) against the
+  // model's valid list, so that every type, text and range is checked before Teuchos fills in
+  // the defaults. The model decides which sublists exist, so its element is read first (a
+  // duplicate or a wrong type of it is reported by the full read below).
+  const auto doc = params::parse_xml(file);
   std::string model = "DAM";
-  if (user->isParameter("Model")) {
-    if (!user->isType<std::string>("Model"))
-      throw params::InputError(file + ": parameter 'granflow->Model' must be a string; allowed: " +
-                               std::string("DAM, N-DAM"));
-    model = user->get<std::string>("Model");
+  for (int c = 0; c < doc.root.numChildren(); ++c) {
+    const auto& x = doc.root.getChild(c);
+    if (x.getTag() != "Parameter" || !x.hasAttribute("name") || x.getAttribute("name") != "Model" ||
+        !x.hasAttribute("value"))
+      continue;
+    model = x.getAttribute("value");
     const auto& names = model_names();
     if (std::find(names.begin(), names.end(), model) == names.end()) {
       std::string allowed;
       for (const auto& n : names) allowed += (allowed.empty() ? "" : ", ") + n;
-      throw params::InputError(file + ": parameter 'granflow->Model' = " + model +
+      throw params::InputError(file + ": parameter 'granflow->Model' = " + params::shown(model) +
                                ": unknown model; allowed: " + allowed);
     }
+    break;
   }
+  auto user = params::to_parameter_list(doc, valid_parameters(model).get());
   s.user = Teuchos::rcp(new ParameterList(*user));
   params::validate_and_set_defaults(*user, *valid_parameters(model), file);
   s.params = user;
@@ -105,7 +156,9 @@ Scene load(const std::string& file) {
         s.dir);
     (void)m;
     (void)c;
-    core::RunControl::from_parameters(user->sublist("Time"), user->sublist("Output"), s.dir);
+    const auto rc =
+        core::RunControl::from_parameters(user->sublist("Time"), user->sublist("Output"), s.dir);
+    check_output(rc, user->sublist("Output"));
   } catch (const params::InputError& e) {
     throw params::InputError(file + ": " + e.what());
   }
@@ -128,12 +181,14 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
       const auto init = [&](dam::DamSolver& dam) {
         dam::InitialCondition::apply(p.sublist("Initial condition"), uic, channel, dam);
       };
-      if (d.layout == "A priori")
+      const bool dynamic = d.layout == "Dynamic";
+      if (d.layout == "A priori" || (dynamic && d.initial_layout == "A priori"))
         d = coupling::a_priori_layout(d, material, channel, cfg, init,
                                       p.sublist("Time").get<double>("End time"),
                                       p.sublist("Output").get<double>("Interval"));
       const bool any_2d = std::find(d.models.begin(), d.models.end(), "2D") != d.models.end();
-      if (!any_2d) return coupling::build(d, material, channel, cfg, init);
+      // a dynamic layout may create 2D subdomains later: it always configures the 2D model
+      if (!any_2d && !dynamic) return coupling::build(d, material, channel, cfg, init);
       int ranks = 1;
       MPI_Comm_size(MPI_COMM_WORLD, &ranks);
       auto user_sub = [&](const char* n) {
@@ -149,7 +204,11 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
       two_d.rheology =
           ndam::Rheology::from_parameters(p.sublist("Rheology"), user_sub("Rheology"), material);
       two_d.physics = ndam::NdamPhysics::from(material, channel);
-      return coupling::build(d, material, channel, cfg, init, &two_d);
+      auto coupled = coupling::build(d, material, channel, cfg, init, &two_d);
+      if (dynamic)
+        coupled->set_domain_manager(
+            std::make_unique<coupling::DomainManager>(d, coupled->factory()));
+      return coupled;
     }
     if (s.model == "DAM") {
       const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));
@@ -187,7 +246,11 @@ std::string parameter_reference() {
         "(`getValidParameters()`); do not edit by hand. A test checks that this file matches "
         "the code.\n\n"
      << "A scene is a Teuchos ParameterList XML file whose top list holds the parameters below. "
-        "Which sublists are valid depends on `Model`.\n";
+        "Which sublists are valid depends on `Model`. Each parameter must be given with the type "
+        "listed here, at most once per list; values are read strictly (a double is one decimal "
+        "number, an int a whole number that fits an int, a bool `true` or `false`, an array "
+        "`{a, b}` with comma-separated entries, text UTF-8), and anything else stops the run "
+        "with exit code 2.\n";
   for (const auto& m : model_names()) {
     os << "\n## Model `" << m << "`\n\n";
     os << params::reference_markdown(*valid_parameters(m), 3);

@@ -18,11 +18,14 @@ granflow_cli_test(unknown_option 1 "unknown option '--frobnicate'" --frobnicate)
 # bad input (scene files in tests/cli/)
 granflow_cli_test(missing_file 2 "cannot open scene file '.*does_not_exist.xml'"
                   ${_cli}/does_not_exist.xml)
-granflow_cli_test(malformed_xml 2 "not a valid ParameterList XML" ${_cli}/bad_malformed.xml)
+granflow_cli_test(malformed_xml 2 "bad_malformed.xml.* is not well-formed XML.*line 3" ${_cli}/bad_malformed.xml)
 granflow_cli_test(misspelt_name 2 "Bed fricton angle.*(valid|Valid)" ${_cli}/bad_misspelt.xml)
-granflow_cli_test(wrong_type 2 "wrong type.*Cells" ${_cli}/bad_wrong_type.xml)
-granflow_cli_test(out_of_range 2 "CFL.*Max: 0\\.5.*Value entered: 0\\.8" ${_cli}/bad_out_of_range.xml)
-granflow_cli_test(bad_enum 2 "Scheme.*Minmod, Beam-Warming.*Value entered: Superbee" ${_cli}/bad_enum.xml)
+granflow_cli_test(wrong_type 2 "parameter .granflow->DAM->Cells. = .100\\.0.: given as type .double.; allowed: type .int."
+                  ${_cli}/bad_wrong_type.xml)
+granflow_cli_test(out_of_range 2 "parameter .granflow->DAM->CFL. = .0\\.8.: out of range; allowed: a decimal number in \\[0\\.001, 0\\.5\\]"
+                  ${_cli}/bad_out_of_range.xml)
+granflow_cli_test(bad_enum 2 "parameter .granflow->DAM->Scheme. = .Superbee.: not an allowed value; allowed: one of Minmod, Beam-Warming"
+                  ${_cli}/bad_enum.xml)
 granflow_cli_test(delta_above_phi 2 "Bed friction angle' = 35.*Internal friction angle' = 30"
                   ${_cli}/bad_delta_above_phi.xml)
 granflow_cli_test(inflow_on_wall 2 "Left boundary->Inflow depth.*Wall.*allowed only with Type = Inflow"
@@ -31,7 +34,7 @@ granflow_cli_test(one_sided_periodic 2 "Right boundary->Type' = Outflow.*periodi
                   ${_cli}/bad_one_sided_periodic.xml)
 granflow_cli_test(missing_series_file 2 "Inflow series file' = .*no_such_series.csv.*cannot open"
                   ${_cli}/bad_missing_series.xml)
-granflow_cli_test(unknown_model 2 "Model' = Navier.*allowed" ${_cli}/bad_unknown_model.xml)
+granflow_cli_test(unknown_model 2 "Model' = .Navier.: unknown model; allowed: DAM, N-DAM, Coupled" ${_cli}/bad_unknown_model.xml)
 granflow_cli_test(ic_parameter_of_other_type 2 "Initial condition->Left depth.*not used by initial condition Type 'Uniform'"
                   ${_cli}/bad_ic_mismatch.xml)
 granflow_cli_test(dam_position_outside 2 "Position' = 2.*outside the channel.*\\[0, 1\\]"
@@ -98,3 +101,107 @@ foreach(_s ${_scenes})
   get_filename_component(_n ${_s} NAME_WE)
   granflow_cli_test(scene_${_n} 0 "valid scene '${_n}'" --check ${_s})
 endforeach()
+
+# --- malformed values: each reproduction of issue 13 (items 1 and 7) is a shipped scene with one
+# change (mutate.py edits it), refused by --check and by a run with exit 2 and a message that
+# names the parameter's full path, the text as entered and what is allowed.
+find_package(Python3 COMPONENTS Interpreter)
+if(Python3_Interpreter_FOUND)
+  set(_in ${PROJECT_SOURCE_DIR}/inputs)
+  function(granflow_mutant_test name scene regex)
+    add_test(NAME cli.value_${name}
+             COMMAND ${Python3_EXECUTABLE} ${_cli}/mutate.py --exe $<TARGET_FILE:granflow>
+                     --scene ${_in}/${scene} --out mutants/${name} --code 2 --regex "${regex}"
+                     ${ARGN}
+             WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+    set_tests_properties(cli.value_${name} PROPERTIES LABELS "cli")
+  endfunction()
+  set(_slope "Channel->Slope angle")
+  set(_slope_re "parameter 'granflow->Channel->Slope angle' = ")
+  set(_double_re "allowed: a decimal number in \\[0, 89\\]")
+  granflow_mutant_test(double_abc setup2_dam.xml "${_slope_re}\"abc\": not a decimal number.*${_double_re}"
+                       --set ${_slope} abc)
+  granflow_mutant_test(double_empty setup2_dam.xml "${_slope_re}\"\": empty, not a number.*${_double_re}"
+                       --set ${_slope} {empty})
+  granflow_mutant_test(double_trailing_text setup2_dam.xml "${_slope_re}\"50abc\": not a decimal number.*${_double_re}"
+                       --set ${_slope} 50abc)
+  granflow_mutant_test(double_hex setup2_dam.xml "${_slope_re}\"0x10\": not a decimal number.*${_double_re}"
+                       --set ${_slope} 0x10)
+  granflow_mutant_test(double_nan setup2_dam.xml "${_slope_re}\"nan\": not a decimal number"
+                       --set ${_slope} nan)
+  granflow_mutant_test(double_overflow setup2_dam.xml "${_slope_re}\"1e999\": too large for a double"
+                       --set ${_slope} 1e999)
+  granflow_mutant_test(double_given_as_string setup2_dam.xml
+                       "${_slope_re}\"abc\": given as type \"string\"; allowed: type \"double\" \\(a decimal number in \\[0, 89\\]\\)"
+                       --type ${_slope} string --set ${_slope} abc)
+  granflow_mutant_test(inflow_depth_string_nan setup2_dam.xml
+                       "parameter 'granflow->Channel->Left boundary->Inflow depth' = \"nan\": given as type \"string\"; allowed: type \"double\""
+                       --type "Channel->Left boundary->Inflow depth" string
+                       --set "Channel->Left boundary->Inflow depth" nan)
+  granflow_mutant_test(end_time_string_nan setup2_dam.xml
+                       "parameter 'granflow->Time->End time' = \"nan\": given as type \"string\""
+                       --type "Time->End time" string --set "Time->End time" nan)
+  set(_cells_re "parameter 'granflow->DAM->Cells' = ")
+  set(_int_re "allowed: an integer in \\[4, 100000000\\]")
+  granflow_mutant_test(int_wraps setup2_dam.xml "${_cells_re}\"4294967696\": outside the range of an int.*${_int_re}"
+                       --set DAM->Cells 4294967696)
+  granflow_mutant_test(int_fraction setup2_dam.xml "${_cells_re}\"50.9\": not an integer.*${_int_re}"
+                       --set DAM->Cells 50.9)
+  granflow_mutant_test(int_trailing_text setup2_dam.xml "${_cells_re}\"8x\": not an integer.*${_int_re}"
+                       --set DAM->Cells 8x)
+  granflow_mutant_test(int_abc_says_abc setup2_dam.xml "${_cells_re}\"abc\": not an integer.*${_int_re}"
+                       --set DAM->Cells abc)
+  set(_if "Decomposition->Interfaces")
+  set(_if_re "parameter 'granflow->Decomposition->Interfaces' = ")
+  granflow_mutant_test(array_nan setup2_coupled.xml "${_if_re}\"{nan, 0.7}\": entry 1 \\(\"nan\"\\) is not a decimal number"
+                       --set ${_if} "{nan, 0.7}")
+  granflow_mutant_test(array_abc setup2_coupled.xml "${_if_re}\"{abc, 0.7}\": entry 1 \\(\"abc\"\\) is not a decimal number"
+                       --set ${_if} "{abc, 0.7}")
+  granflow_mutant_test(array_no_comma setup2_coupled.xml
+                       "${_if_re}\"{0.5 0.7}\": entry 1 \\(\"0.5 0.7\"\\) is not a decimal number.*separated by commas"
+                       --set ${_if} "{0.5 0.7}")
+  granflow_mutant_test(array_entry_out_of_range setup2_coupled.xml
+                       "${_if_re}\"{0.2, -1}\": entry 2 \\(\"-1\"\\) is out of range; allowed: .*each entry in \\[0, 1e\\+06\\]"
+                       --set ${_if} "{0.2, -1}")
+  granflow_mutant_test(duplicate setup2_dam.xml
+                       "${_slope_re}\"45\": given twice in list 'granflow->Channel' \\(first = \"50\"\\); allowed: once"
+                       --duplicate ${_slope} 45)
+  granflow_mutant_test(unknown_attribute setup2_dam.xml
+                       "parameter .granflow->Channel->Slope angle.: attribute \"vlaue\" of <Parameter> is not read by granflow"
+                       --attr ${_slope} vlaue 45)
+  granflow_mutant_test(bool_not_true_or_false setup2_ndam.xml
+                       "parameter 'granflow->N-DAM->Free surface' = \"1\": not a bool; allowed: true or false"
+                       --set "N-DAM->Free surface" 1)
+  # item 7: input parsing
+  granflow_mutant_test(nested_10000_lists setup2_dam.xml
+                       "setup2_dam.xml' line [0-9]+: lists are nested more than 32 levels deep"
+                       --nest 10000)
+  granflow_mutant_test(name_not_utf8 setup2_dam.xml
+                       "parameter 'granflow->Name' = \"setup2.xff_dam\": not valid UTF-8 text \\(byte 0xff"
+                       --set Name "setup2\\xff_dam")
+  granflow_mutant_test(output_directory_is_a_file setup2_dam.xml
+                       "parameter 'granflow->Output->Directory' = \".*existing_file\": exists and is not a directory"
+                       --set Output->Directory "{existing_file}")
+  granflow_mutant_test(output_directory_inside_a_file setup2_dam.xml
+                       "parameter 'granflow->Output->Directory' = .*existing_file/run.: '.*existing_file' is a file"
+                       --set Output->Directory "{existing_file}/run")
+  granflow_mutant_test(output_directory_empty setup2_dam.xml
+                       "parameter 'granflow->Output->Directory' = \"\": empty"
+                       --set Output->Directory {empty})
+  granflow_mutant_test(output_interval_1e8_snapshots setup2_dam.xml
+                       "parameter 'granflow->Output->Interval' = 1e-09: End time 0.1 s / Interval gives 100000000 output times.*at most 100000"
+                       --set "Time->End time" 0.1 --set Output->Interval 1e-9)
+  # Fuzzing (issue 13, item 9): 8 mutants of each shipped scene with a fixed seed, each checked
+  # with --check and, when valid, run for 5 steps; see fuzz_scenes.py for what is asserted.
+  # 112 mutants (about 20 of them run): 38 s alone on 2 cores, 50 s inside the full ctest -j2.
+  add_test(NAME fuzz.shipped_scenes
+           COMMAND ${Python3_EXECUTABLE} ${_cli}/fuzz_scenes.py --exe $<TARGET_FILE:granflow>
+                   --inputs ${_in} --out fuzz_scenes --mutants 8 --seed 13
+           WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+  set_tests_properties(fuzz.shipped_scenes PROPERTIES LABELS "fuzz;cli" PROCESSORS 2 TIMEOUT 300)
+else()
+  message(WARNING "python3 not found: the cli.value_* and fuzz tests are not registered")
+endif()
+granflow_cli_test(help_with_extra_argument 1 "--help takes no other argument" --help --check)
+granflow_cli_test(help_with_unknown_option 1 "unknown option '--bogus'" --help --bogus)
+granflow_cli_test(parameters_with_extra_argument 1 "--parameters takes no other argument" --parameters extra)

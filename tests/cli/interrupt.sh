@@ -44,7 +44,7 @@ if [ -z "${NP:-}" ]; then
     grep -q "^granflow: scene '.*', model DAM" $sig.out || fail "stdout is not line-buffered: the scene line is not in the log yet"
     # While it runs, the directory is locked: a second run of the same scene (which would
     # replace its files) is refused, in --check too.
-    expect 2 "Directory' = run_$sig: another granflow run is writing into it now" --check $sig.xml
+    expect 2 "Directory' = \"run_$sig\": another granflow run is writing into it now" --check $sig.xml
     expect 2 "another granflow run is writing into it now" $sig.xml
     kill -$sig $pid
     wait $pid

@@ -15,7 +15,7 @@ base() { scene "$SRC/restart_second.xml" "$1" -e "s|restart_first/checkpoint.h5|
 # 1. Changed physics: the slope (not in the file: the default 50 deg) and the rheology-like DAM
 #    numerics; each difference is named with both values.
 base slope.xml $ck slope -e 's|<Parameter name="Length" type="double" value="1.0"/>|&<Parameter name="Slope angle" type="double" value="45"/>|'
-expect 2 "Restart from' = first/checkpoint.h5: the checkpoint belongs to a different scene: 'Channel->Slope angle' = 50 there, 45 here" --check slope.xml
+expect 2 "Restart from' = \"first/checkpoint.h5\": the checkpoint belongs to a different scene: 'Channel->Slope angle' = 50 there, 45 here" --check slope.xml
 expect 2 "'Channel->Slope angle' = 50 there, 45 here" slope.xml
 [ -e slope ] && fail "a refused restart created its run directory"
 base cells.xml $ck cells -e 's|"Cells" type="int" value="100"|"Cells" type="int" value="120"|' \
@@ -56,7 +56,7 @@ expect 0 "completed at t = 0.04 s" nd_tol.xml
 # 5. A truncated checkpoint (a copy cut at 3000 of its bytes): --check and the run say so.
 head -c 3000 $ck > truncated.h5
 base trunc.xml truncated.h5 trunc
-expect 2 "Restart from' = truncated.h5: 'truncated.h5' cannot be read \(truncated or corrupted\?\).*truncated file" --check trunc.xml
+expect 2 "Restart from' = \"truncated.h5\": 'truncated.h5' cannot be read \(truncated or corrupted\?\).*truncated file" --check trunc.xml
 expect 2 "cannot be read \(truncated or corrupted\?\)" trunc.xml
 : > empty.h5
 base empty.xml empty.h5 empty
@@ -88,7 +88,7 @@ for ((k = 0; k < size; k += step)); do
   out=$("$EXE" --check byte.xml 2>&1); rc=$?
   case $rc in
     0) n0=$((n0 + 1)) ;;
-    2) n2=$((n2 + 1)); echo "$out" | grep -q "Restart from' = byte.h5" || fail "byte $k: $out" ;;
+    2) n2=$((n2 + 1)); echo "$out" | grep -q "Restart from' = \"byte.h5\"" || fail "byte $k: $out" ;;
     *) fail "byte $k: exit code $rc: $out" ;;
   esac
   echo "$out" | grep -q "HDF5-DIAG" && fail "byte $k: an HDF5 diagnostic reached the user"

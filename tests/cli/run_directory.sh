@@ -17,7 +17,7 @@ for f in run.json summary.json profiles.csv fields.h5 fields.xdmf checkpoint.h5;
   [ -e mixed/$f ] || fail "the DAM run did not write $f"
 done
 grep -q '"identity": "[0-9a-f]\{16\}"' mixed/run.json || fail "run.json has no scene identity"
-expect 2 "Output->Directory' = mixed: it holds the run of a different scene \('mixed'; 'Model' = \"DAM\" there, \"N-DAM\" here\): run.json, summary.json, profiles.csv, fields.h5, fields.xdmf, checkpoint.h5. Allowed: another directory, or the option --overwrite" --check ndam.xml
+expect 2 "Output->Directory' = \"mixed\": it holds the run of a different scene \('mixed'; 'Model' = \"DAM\" there, \"N-DAM\" here\): run.json, summary.json, profiles.csv, fields.h5, fields.xdmf, checkpoint.h5. Allowed: another directory, or the option --overwrite" --check ndam.xml
 expect 2 "holds the run of a different scene" ndam.xml
 grep -q '"model": "DAM"' mixed/summary.json || fail "the refused run touched summary.json"
 expect 0 "completed" --overwrite ndam.xml
@@ -38,11 +38,11 @@ for f in fields.h5 fields.xdmf checkpoint.h5; do
 done
 # A slope change is a different scene, also for the directory.
 dam steeper.xml same -e 's|<Parameter name="Length" type="double" value="1.0"/>|&<Parameter name="Slope angle" type="double" value="55"/>|'
-expect 2 "Directory' = same: it holds the run of a different scene \('same'; 'Channel->Slope angle' = 50 there, 55 here\)" steeper.xml
+expect 2 "Directory' = \"same\": it holds the run of a different scene \('same'; 'Channel->Slope angle' = 50 there, 55 here\)" steeper.xml
 # granflow files without run.json and without a summary.json of this scene: refused.
 mkdir legacy && echo "t,x,h,u_mean,eps,model" > legacy/profiles.csv
 dam legacy.xml legacy
-expect 2 "Directory' = legacy: it holds granflow output files without a run record \(run.json\).*: profiles.csv" legacy.xml
+expect 2 "Directory' = \"legacy\": it holds granflow output files without a run record \(run.json\).*: profiles.csv" legacy.xml
 # A directory of a granflow before run.json (here: run.json removed): its summary.json records
 # the parameters, so the same scene reruns (the README's command stays repeatable across the
 # upgrade) and a changed one is refused.
@@ -50,13 +50,13 @@ dam old.xml old
 expect 0 "completed" old.xml
 rm old/run.json
 dam old_steeper.xml old -e 's|<Parameter name="Length" type="double" value="1.0"/>|&<Parameter name="Slope angle" type="double" value="55"/>|'
-expect 2 "Directory' = old: it holds granflow output files without a run record" old_steeper.xml
+expect 2 "Directory' = \"old\": it holds granflow output files without a run record" old_steeper.xml
 expect 0 "completed" old.xml
 [ -e old/run.json ] || fail "the rerun did not write run.json"
 # A directory that is a file.
 : > plainfile
 dam file.xml plainfile
-expect 2 "Directory' = plainfile: exists and is not a directory" --check file.xml
+expect 2 "Directory' = \"plainfile\": exists and is not a directory" --check file.xml
 
 # 3. A run stopped between its output at t = 0.15 s and its checkpoint (made here by putting
 #    the t = 0.1 s checkpoint of the same scene back), restarted into the same directory to

@@ -133,6 +133,7 @@ TEST(Coupled1D, DamBedFrictionOverrideIsTheDamsDelta) {
   s.cfg.bed_friction_deg = 30.0;
   coupling::Decomposition d;
   d.models = {"1D"};
+  d.interfaces = {};  // one subdomain (the default is the paper's three)
   auto coupled = coupling::build(d, s.m, s.c, s.cfg, dry);
   SetupII t;
   t.m.bed_friction_deg = 30.0;

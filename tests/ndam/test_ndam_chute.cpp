@@ -3,7 +3,7 @@
 #include "ndam_chute_util.hpp"
 
 #include "granflow/io/fields.hpp"
-#include "granflow/ndam/markers.hpp"
+#include "granflow/markers/markers.hpp"
 
 #include <gtest/gtest.h>
 

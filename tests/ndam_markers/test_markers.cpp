@@ -1,4 +1,4 @@
-// Tests of the free-surface marker module (include/granflow/ndam/markers.hpp).
+// Tests of the free-surface marker module (include/granflow/markers/markers.hpp).
 //
 // Velocity fields are built from a stream function psi sampled at the cell corners:
 //   u(i,k) = (psi(x_f, z_top) - psi(x_f, z_bot)) / dz,   w(i,k) = -(psi(x_r, z_f) - psi(x_l, z_f)) / dx,
@@ -8,7 +8,7 @@
 //
 // MarkersMpi.* run under `mpiexec -n 2` (ctest markers.mpi_np2): each rank advances the set
 // distributed over MPI_COMM_WORLD and a serial copy on MPI_COMM_SELF and compares them.
-#include "granflow/ndam/markers.hpp"
+#include "granflow/markers/markers.hpp"
 
 #include <gtest/gtest.h>
 #include <mpi.h>

@@ -4,6 +4,7 @@
 #include "granflow/params/parameters.hpp"
 #include "granflow/scene/scene.hpp"
 
+#include <Teuchos_XMLParameterListHelpers.hpp>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -87,4 +88,96 @@ TEST(Scene, EveryShippedSceneValidatesAndBuilds) {
     EXPECT_EQ(model->model_name(), "DAM") << s;
     EXPECT_GT(model->stable_dt(), 0.0) << s;
   }
+}
+
+// --- strict values (issue 13): a scene's text is one number or an error, never another number
+TEST(StrictValues, DoublesAreTheWholeTextInDecimalNotation) {
+  // Accepted texts convert to exactly the double strtod gives for the same text (== on doubles:
+  // the conversion is the same correctly rounded one).
+  for (const char* t : {"0.25", "1e-3", "1E+3", ".5", "5.", "-0", "+2", " 7 ", "89", "1e-300"}) {
+    double v = -1.0;
+    std::string why;
+    ASSERT_TRUE(params::parse_double(t, v, why)) << t << ": " << why;
+    EXPECT_EQ(v, std::strtod(t, nullptr)) << t;
+  }
+  for (const char* t : {"", " ", "abc", "50abc", "0x10", "nan", "inf", "-infinity", "1e999",
+                        "1e-400", "1,5", "1.5.2", "e5", "1e", "--1", "{0.5}", "0.5 0.7"}) {
+    double v = 123.0;
+    std::string why;
+    EXPECT_FALSE(params::parse_double(t, v, why)) << t;
+    EXPECT_EQ(v, 123.0) << t << ": value changed on failure";
+    EXPECT_FALSE(why.empty()) << t;
+  }
+}
+
+TEST(StrictValues, IntegersAreIntegralAndFitAnInt) {
+  const std::pair<const char*, int> ok[] = {
+      {"400", 400}, {"-5", -5}, {"+3", 3}, {" 12 ", 12}, {"2147483647", 2147483647},
+      {"-2147483648", -2147483647 - 1}};
+  for (const auto& [t, want] : ok) {
+    int v = 0;
+    std::string why;
+    ASSERT_TRUE(params::parse_int(t, v, why)) << t << ": " << why;
+    EXPECT_EQ(v, want) << t;
+  }
+  // 4294967696 = 2^32 + 400 wrapped to 400 before; 50.9 was truncated to 50, 8x read as 8.
+  for (const char* t : {"4294967696", "2147483648", "50.9", "50.0", "1e3", "8x", "abc", "", "0x10",
+                        "99999999999999999999"}) {
+    int v = 7;
+    std::string why;
+    EXPECT_FALSE(params::parse_int(t, v, why)) << t;
+    EXPECT_EQ(v, 7) << t;
+  }
+}
+
+TEST(StrictValues, BoolsAndText) {
+  bool b = false;
+  std::string why;
+  EXPECT_TRUE(params::parse_bool("true", b, why) && b);
+  EXPECT_TRUE(params::parse_bool("false", b, why) && !b);
+  for (const char* t : {"1", "yes", "True", "", "truex"}) EXPECT_FALSE(params::parse_bool(t, b, why)) << t;
+  // UTF-8: accented letters, degree sign, tab kept; invalid bytes, overlong forms, surrogates,
+  // truncated sequences and control characters refused.
+  for (const char* t : {"setup2_dam", "D\xc3\xa9j\xc3\xa0 vu", "50 \xc2\xb0", "a\tb", ""})
+    EXPECT_TRUE(params::check_text(t, why)) << t << ": " << why;
+  for (const char* t : {"setup2\xff_dam", "\xc0\xaf", "\xed\xa0\x80", "\xe2\x82", "a\x01" "b",
+                        "\xf4\x90\x80\x80"})
+    EXPECT_FALSE(params::check_text(t, why)) << t;
+  // Messages show such bytes as \xNN, so that the message itself is valid text.
+  EXPECT_EQ(params::shown("setup2\xff_dam"), "\"setup2\\xff_dam\"");
+  EXPECT_EQ(params::shown("D\xc3\xa9j\xc3\xa0"), "\"D\xc3\xa9j\xc3\xa0\"");
+}
+
+TEST(StrictValues, ShippedScenesReadAsTeuchosReadsThem) {
+  // For valid input the strict reader must give the same list as Teuchos's own XML reader
+  // (same names, types and values, compared exactly): it only refuses what Teuchos misreads.
+  for (const char* s : {"setup1_dam.xml", "setup2_dam.xml", "dambreak_incline.xml",
+                        "setup1_ndam.xml", "setup2_ndam.xml", "setup2_coupled.xml",
+                        "setup2_split_1d.xml", "ndam_cavity_re100.xml", "ndam_rest_slope.xml"}) {
+    const std::string file = std::string(GRANFLOW_INPUTS) + "/" + s;
+    const auto strict = params::read_xml(file);
+    const auto teuchos = Teuchos::getParametersFromXmlFile(file);
+    EXPECT_TRUE(Teuchos::haveSameValues(*strict, *teuchos)) << s;
+  }
+  // the comparison sees a difference: Setup I and Setup II differ in their channel
+  EXPECT_FALSE(Teuchos::haveSameValues(
+      *params::read_xml(std::string(GRANFLOW_INPUTS) + "/setup1_dam.xml"),
+      *Teuchos::getParametersFromXmlFile(std::string(GRANFLOW_INPUTS) + "/setup2_dam.xml")));
+}
+
+TEST(InflowSeries, RowsAreThreeStrictNumbers) {
+  const auto f1 = write_tmp("series_trailing.csv", "t,h,u\n0,0.06,0.37\n0.5,0.06abc,0.37\n");
+  const auto f2 = write_tmp("series_four.csv", "t,h,u\n0,0.06,0.37\n0.5,0.06,0.37,4\n");
+  const auto f3 = write_tmp("series_nan.csv", "0,0.06,0.37\n0.5,nan,0.37\n");
+  for (const auto& f : {f1, f2, f3}) {
+    try {
+      core::InflowSeries::from_csv(f, "p");
+      FAIL() << f << " accepted";
+    } catch (const params::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("line "), std::string::npos) << e.what();
+    }
+  }
+  // blanks instead of commas and CRLF line ends are still read
+  const auto ok = write_tmp("series_blank.csv", "t h u\r\n0 0.06 0.37\r\n1 0.08 0.5\r\n");
+  EXPECT_NEAR(core::InflowSeries::from_csv(ok, "p").depth(0.5), 0.07, 1e-15);  // round-off only
 }

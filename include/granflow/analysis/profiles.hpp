@@ -46,9 +46,27 @@ struct Subdomain {
   double x0, x1;
 };
 
+/// The default criteria of the a priori layout below, shared by the scene's Decomposition
+/// ('Shallowness threshold', 'Margin', 'Minimum length') and granflow-study's layout command.
+struct LayoutCriteria {
+  /// 2D where eps >= this: the paper's minimum requirement at an interface is eps < 0.1.
+  double threshold = 0.1;
+  /// [m] widening of each 2D region (the paper: "somewhat greater than suggested by the
+  /// one-dimensional simulation").
+  double margin = 0.05;
+  double min_length = 0.05;  ///< [m] shorter 1D gaps and end pieces become 2D
+};
+
+/// A cell counts as wet for the layout (its eps is used) where h exceeds this many times the
+/// DAM's dry depth: a film within a decade of the dry depth is the numerically wetted tip of a
+/// front, where u is set from a vanishing depth and eps = beta h / u^2 is not a flow property.
+constexpr double kLayoutWetDepthFactor = 10.0;
+/// The wet-depth cut of the a priori layout for a DAM run with dry depth `dry_depth` [m].
+inline double layout_wet_depth(double dry_depth) { return kLayoutWetDepthFactor * dry_depth; }
+
 /// A priori layout (paper section 4.1): 2D wherever max over time of eps >= threshold (wet
-/// cells only), each such region widened by `margin` on both sides, merged, clipped to
-/// [0, length]; 1D elsewhere. Subdomains shorter than `min_length` are absorbed into 2D.
+/// cells, h > h_min, only), each such region widened by `margin` on both sides, merged, clipped
+/// to [0, length]; 1D elsewhere. Subdomains shorter than `min_length` are absorbed into 2D.
 std::vector<Subdomain> propose_layout(const std::map<double, ProfileAt>& run, double length,
                                       double threshold, double margin, double min_length,
                                       double h_min);

@@ -33,10 +33,13 @@ struct BoundarySpec {
   InflowSeries inflow;  ///< used only when type == Inflow
 };
 
+/// The defaults are the paper's Setup II chute (1 m at 50 deg, fed through a silo gate of
+/// 6 cm at 0.37 m/s, open downstream end); getValidParameters() takes its defaults from here.
 struct Channel {
   double length = 1.0;      ///< L [m]
   double slope_deg = 50.0;  ///< zeta [deg]
-  BoundarySpec left, right;
+  BoundarySpec left{BoundaryType::Inflow, InflowSeries(0.06, 0.37)};
+  BoundarySpec right{BoundaryType::Outflow, InflowSeries()};
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
   /// Reads a validated "Channel" list. `user` is the list as the user wrote it (before defaults

@@ -15,6 +15,18 @@ class Checkpoint;
 
 namespace granflow::core {
 
+/// check() of every model stops a run whose tentative state moves faster than this [m/s]. The
+/// paper's chutes flow at 0.4-3 m/s and free fall down any laboratory chute stays below
+/// 100 m/s, so |u| > 1e4 m/s is a diverging state; it is caught while its numbers are still
+/// finite, so the diagnosis can name the cell.
+inline constexpr double kMaxVelocity = 1.0e4;
+/// The reason check() gives for a velocity above kMaxVelocity (summary.json, stderr).
+inline constexpr const char* kMaxVelocityReason = "velocity above 1e4 m/s";
+/// profiles.csv caps the shallowness parameter eps at this: material at rest has eps -> infinity
+/// (u_mean -> 0). Any cap far above the a priori layout's threshold (0.1) gives the same layout;
+/// a finite one keeps the CSV and its plots readable.
+inline constexpr double kEpsCap = 1.0e6;
+
 /// Depth-averaged profile along the channel (the output contract's profiles.csv rows).
 struct Profile {
   std::vector<double> x, h, u_mean, eps;
@@ -60,6 +72,9 @@ class Stepper {
   virtual Health check() const = 0;
   /// Make the tentative state current.
   virtual void accept() = 0;
+  /// Between accepted steps (and once before the first): a model may change its own structure,
+  /// e.g. the coupled model's domain manager moves its interfaces. Returns whether it did.
+  virtual bool adapt() { return false; }
 
   virtual Profile profile() const = 0;
   virtual MassBalance mass_balance() const = 0;

@@ -4,17 +4,17 @@
 // and exchanging boundary data through interface objects at fixed or moving positions.
 //
 //   dt = min over subdomains of stable_dt();  every subdomain steps from the states at t
-//   (an interface reads its neighbour's state at t: explicit exchange);  check all;  accept all.
+//   (an interface reads its neighbour's state at t: explicit exchange, except the one contract
+//   of interface.hpp), in an order that honours it;  check all;  accept all.
 //
-// Interfaces here:
-//   1D | 1D  each side's ghost cells sample the neighbour's reconstruction at the ghost centres
-//            (overlapping exchange; transparent for sub- and supercritical flow);
-//   2D -> 1D eqs. (19)-(21): the 1D inflow ghosts take h and the depth-averaged u of the 2D side
-//            at their centres (needs the 2D chute model: issue 4);
-//   1D -> 2D eqs. (24)-(27) (needs the 2D chute model: issue 4).
-// Mass through every interface is tracked from both sides and reported in summary.json.
+// The interfaces and the conditions they set are interface.hpp; the parts are built by the
+// SubdomainFactory (factory.hpp). Mass through every interface is tracked from both sides and
+// reported in summary.json.
+#include "granflow/analysis/profiles.hpp"
 #include "granflow/core/channel.hpp"
 #include "granflow/core/stepper.hpp"
+#include "granflow/coupling/interface.hpp"
+#include "granflow/coupling/subdomain.hpp"
 
 #include <Teuchos_ParameterList.hpp>
 
@@ -26,14 +26,25 @@
 
 namespace granflow::coupling {
 
-/// "Decomposition" sublist: the sequence of models along the channel and the interfaces.
+/// "Decomposition" sublist: the sequence of models along the channel and the interfaces. The
+/// defaults are the paper's Setup I/II layout 2D [0, 0.2] / 1D [0.2, 0.7] / 2D [0.7, L] and the
+/// a priori criteria of analysis::LayoutCriteria; getValidParameters() takes them from here.
 struct Decomposition {
-  std::vector<std::string> models;  ///< "1D" or "2D" per subdomain, upstream first
-  std::vector<double> interfaces;   ///< interface positions [m], non-decreasing in [0, L]
-  std::string layout = "Static";    ///< "Static" or "A priori"
-  double eps_threshold = 0.1;       ///< a priori: 2D where eps = 1/Fr^2 >= this
-  double margin = 0.05;             ///< a priori: widening of each 2D region [m]
-  double min_length = 0.05;         ///< a priori: shortest subdomain kept [m]
+  /// "1D" or "2D" per subdomain, upstream first
+  std::vector<std::string> models{"2D", "1D", "2D"};
+  std::vector<double> interfaces{0.2, 0.7};  ///< interface positions [m], non-decreasing in [0, L]
+  std::string layout = "Static";             ///< "Static", "A priori" or "Dynamic"
+  /// a priori and dynamic: 2D where eps >= this
+  double eps_threshold = analysis::LayoutCriteria{}.threshold;
+  double margin = analysis::LayoutCriteria{}.margin;  ///< widening of each 2D region [m]
+  double min_length = analysis::LayoutCriteria{}.min_length;  ///< shortest subdomain kept [m]
+  // Dynamic layout (the domain manager, domain_manager.hpp)
+  std::string initial_layout = "Static";  ///< "Static" or "A priori": where a dynamic run starts
+  double eps_lower = 0.05;          ///< a 2D column may become 1D once eps < this ...
+  double hold_time = 0.05;          ///< ... for this long [s] (hysteresis)
+  double check_interval = 0.005;    ///< time between two evaluations of the layout [s]
+  double rest_speed = 0.05;         ///< |u_mean| below this is material at rest: 2D [m/s]
+  bool shock_indicator = true;      ///< a shock on the 1D side counts as 2D
   /// 1D-to-2D interfaces: how the pressure of eq. (26) enters the 2D inflow column
   /// ("Rheology", "Dirichlet" or "None"; see ndam::InflowPressure).
   std::string interface_pressure = "Rheology";
@@ -49,20 +60,17 @@ struct Decomposition {
   Decomposition normalised(double length) const;
 };
 
-/// One subdomain: its model and how the coupling reads and feeds it.
-struct Subdomain {
-  std::string kind;  ///< "1D" or "2D"
-  double x0 = 0.0, x1 = 0.0;
-  std::unique_ptr<core::Stepper> model;
-  /// Depth-averaged state {h, u_mean} of the current state at x in [x0, x1].
-  std::function<std::array<double, 2>(double)> sample;
-  /// Mass [m^2] that entered at x0 and left at x1 in the last accepted step.
-  std::function<std::array<double, 2>()> last_transfer;
-};
+class SubdomainFactory;
+class DomainManager;
 
 class CoupledModel final : public core::Stepper {
  public:
-  explicit CoupledModel(std::vector<Subdomain> parts);
+  /// The parts in order along the channel (touching, upstream first); the interfaces between
+  /// them are connected here. `factory` (optional) is what the parts were built with; a
+  /// checkpoint with a different layout is rebuilt through it.
+  CoupledModel(std::vector<Subdomain> parts, const InterfaceOptions& options,
+               std::shared_ptr<const SubdomainFactory> factory = nullptr);
+  ~CoupledModel() override;
 
   std::string model_name() const override { return "Coupled"; }
   double time() const override { return parts_.front().model->time(); }
@@ -71,6 +79,7 @@ class CoupledModel final : public core::Stepper {
   void step(double dt) override;
   core::Health check() const override;
   void accept() override;
+  bool adapt() override;
   core::Profile profile() const override;
   core::MassBalance mass_balance() const override;
   void write_fields(io::FieldWriter& w) const override;
@@ -79,14 +88,36 @@ class CoupledModel final : public core::Stepper {
   void report(nlohmann::json& stats) const override;
 
   const std::vector<Subdomain>& parts() const { return parts_; }
+  const Interface& interface(std::size_t i) const { return *interfaces_[i]; }
+  std::size_t interfaces() const { return interfaces_.size(); }
   /// Cumulative mass that left subdomain i through interface i (upstream side) and that
-  /// entered subdomain i + 1 through it (downstream side) [m^2].
-  std::array<double, 2> interface_mass(std::size_t i) const { return iface_mass_[i]; }
+  /// entered subdomain i + 1 through it (downstream side) [m^2], since that interface was
+  /// connected.
+  std::array<double, 2> interface_mass(std::size_t i) const { return interfaces_[i]->mass(); }
+  /// Replaces the parts [first, first + count) by `with` (inserting, removing or resizing
+  /// subdomains is one call) and reconnects all interfaces. The new parts must cover exactly
+  /// the replaced interval. The run's mass ledger carries over: the inflow and outflow that
+  /// replaced end parts had booked stay booked.
+  void replace_parts(std::size_t first, std::size_t count, std::vector<Subdomain> with);
+  /// Models and interface positions of the current layout.
+  Decomposition layout() const;
+  /// The runtime domain manager (Layout = Dynamic): adapt() lets it move the interfaces.
+  void set_domain_manager(std::unique_ptr<DomainManager> m);
+  const DomainManager* domain_manager() const { return manager_.get(); }
+  std::shared_ptr<const SubdomainFactory> factory() const { return factory_; }
 
  private:
+  void reconnect();  // interfaces between the current parts, and the step order
+
   std::vector<Subdomain> parts_;
-  std::vector<std::array<double, 2>> iface_mass_;
+  InterfaceOptions options_;
+  std::shared_ptr<const SubdomainFactory> factory_;
+  std::vector<std::unique_ptr<Interface>> interfaces_;
+  std::vector<std::size_t> step_order_;  // parts in the order their step() runs
   long steps_ = 0;
+  double initial_mass_ = 0.0;
+  double retired_inflow_ = 0.0, retired_outflow_ = 0.0;  // booked by replaced end parts
+  std::unique_ptr<DomainManager> manager_;
 };
 
 }  // namespace granflow::coupling

@@ -31,6 +31,17 @@ namespace granflow::dam {
 
 enum class Scheme { Minmod, BeamWarming };
 enum class EarthPressure { SavageHutter, Active, Passive, Isotropic };
+/// The names of the "DAM" list's 'Scheme' and 'Earth pressure' values.
+inline const char* to_string(Scheme s) { return s == Scheme::Minmod ? "Minmod" : "Beam-Warming"; }
+inline const char* to_string(EarthPressure e) {
+  switch (e) {
+    case EarthPressure::SavageHutter: return "Savage-Hutter";
+    case EarthPressure::Active: return "Active";
+    case EarthPressure::Passive: return "Passive";
+    case EarthPressure::Isotropic: return "Isotropic";
+  }
+  return "?";
+}
 
 /// Numerical parameters of the DAM ("DAM" sublist).
 struct DamConfig {
@@ -138,6 +149,18 @@ class DamSolver final : public core::Stepper {
   }
   double x_left() const { return x0_; }
   double x_right() const { return x1_; }
+
+  // Rebuilding (the coupled model's interfaces and the domain manager).
+  /// Replaces the boundary of one end (0 left, 1 right) after construction: the coupled model
+  /// reconnects its interfaces after a change of its parts.
+  void set_boundary(int side, DamBoundary b);
+  /// The state from cell averages h, hu at time t after `steps` steps: on the primary grid
+  /// (cells() values) or on the staggered grid (cells() + 1 values, the end cells the averages
+  /// over their halves inside [x_left, x_right]). The ledger restarts from this mass (a
+  /// subdomain rebuilt from the cells of its predecessor or from 2D columns; the coupled model
+  /// keeps the run's ledger).
+  void set_cells(std::vector<double> h, std::vector<double> hu, double t, long steps,
+                 bool staggered = false);
 
  private:
   static constexpr int G = 2;  // ghost cells per side

@@ -15,12 +15,35 @@
 // Every face is owned by exactly one rank: the one that owns the cell to its left (u) or the
 // cell below it (w).
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace granflow::ndam {
 
-/// Cell flags (NaSt2D): obstacle and fluid now; surface and empty arrive with the free surface.
+/// Cell flags (NaSt2D): Obstacle (rigid), Fluid (material, all four neighbours hold material or
+/// are walls), Surface (material next to at least one Empty cell), Empty (no material).
 enum class CellFlag : int { Obstacle = 0, Fluid = 1, Surface = 2, Empty = 3 };
+
+/// Bits of the empty-side mask of a Surface cell (NaSt2D's surface cell types).
+namespace empty_side {
+constexpr std::uint8_t Left = 1, Right = 2, Bottom = 4, Top = 8;
+}
+
+/// The free-surface flag rule, in one place (MarkerSet::update_flags and the N-DAM's layout both
+/// use it): a cell without markers is Empty; a cell with markers is Surface when one of its four
+/// neighbours is Empty, with the mask of those sides, else Fluid. The caller says which
+/// neighbours are empty; outside the box (walls, gate, outflow, top) counts as not empty, a
+/// periodic side as the wrapped cell. Obstacle cells are left to the caller.
+inline CellFlag classify_cell(bool has_markers, bool empty_left, bool empty_right,
+                              bool empty_bottom, bool empty_top, std::uint8_t& mask) {
+  mask = 0;
+  if (!has_markers) return CellFlag::Empty;
+  if (empty_left) mask |= empty_side::Left;
+  if (empty_right) mask |= empty_side::Right;
+  if (empty_bottom) mask |= empty_side::Bottom;
+  if (empty_top) mask |= empty_side::Top;
+  return mask ? CellFlag::Surface : CellFlag::Fluid;
+}
 
 struct Grid {
   int nx = 32, nz = 32;          ///< global cells

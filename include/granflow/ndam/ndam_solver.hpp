@@ -6,12 +6,26 @@
 //   du/dt = div(sigma) + g,  sigma = -p 1 + 2 nu_eff D,  g = (g sin zeta, -g cos zeta),   (2, 3)
 //   nu_eff from the Rheology module (eqs. 4-6).
 //
-// One time step is the projection method of NaSt2D in incremental form (docs/numerics.md):
+// One time step is the projection method of NaSt2D in incremental form (docs/numerics.md);
+// step() reads as this box, each line in its own file of src/ndam/:
+//   gate_state         the inflow of the step, h_in and u_in (inflow.cpp, eqs. 24-27)
+//   update_viscosity   nu_eff(u^n, p^n) (viscosity.cpp, eqs. 4-6) and the Coulomb ghost
+//                      factors of the sliding law (boundaries.cpp, eqs. 11-13)
+//   surface_conditions Dirichlet values of the Surface/Empty cells (free_surface.cpp)
 //   predict_velocity   u* = u^n + dt (-(u.grad)u + g - grad p^n + div(2 nu_eff D(u)))
-//                      the viscous stress explicit (u^n) or implicit (u*, nu_eff lagged at t^n);
-//   solve_pressure     -L phi = -div(u*) / dt  (L: 5-point Laplacian with Neumann walls);
+//                      the viscous stress explicit (u^n) or implicit (u*, nu_eff lagged at t^n)
+//                      (momentum.cpp, eqs. 8-9)
+//   solve_pressure     -L phi = -div(u*) / dt  (L: 5-point Laplacian with Neumann walls)
+//                      (projection.cpp, eqs. 10, 14)
 //   correct_velocity   u^{n+1} = u* - dt grad phi,  p^{n+1} = p^n + phi (- 2 nu_eff div u* when
-//                      implicit: the rotational form, see docs/numerics.md).
+//                      implicit: the rotational form, see docs/numerics.md) (projection.cpp)
+//   or, 'Pressure coupling' = Nonlinear, the three above as the fixed point of the nonlinear
+//                      pressure system solved by NOX (pressure_system.cpp, eqs. 10 + 13 + 14)
+//   advect_markers     markers move with Heun's method in u^n and u^{n+1}, the gate injects
+//                      (free_surface.cpp, inflow.cpp)
+//   update_flags       Fluid/Surface/Empty from the markers (free_surface.cpp, mac_layout.cpp)
+// The grid and its unknowns are the MacLayout (mac_layout.hpp); output and checkpoints are
+// ndam_output.cpp.
 // The pressure at t = 0 solves eq. (10) with the Neumann condition (14), so a fluid at rest
 // starts in hydrostatic balance.
 //
@@ -31,15 +45,17 @@
 #include "granflow/core/channel.hpp"
 #include "granflow/core/material.hpp"
 #include "granflow/core/stepper.hpp"
+#include "granflow/markers/markers.hpp"
+#include "granflow/ndam/config.hpp"
 #include "granflow/ndam/grid.hpp"
-#include "granflow/ndam/markers.hpp"
+#include "granflow/ndam/mac_layout.hpp"
+#include "granflow/ndam/ndam_state.hpp"
 #include "granflow/ndam/rheology.hpp"
+#include "granflow/ndam/statistics.hpp"
 #include "granflow/solvers/linear_system.hpp"
 #include "granflow/solvers/nonlinear_system.hpp"
 
 #include <mpi.h>
-
-#include <Teuchos_ParameterList.hpp>
 
 #include <array>
 #include <functional>
@@ -50,96 +66,16 @@
 
 namespace granflow::ndam {
 
-enum class Momentum { Explicit, Implicit };
-/// How the pressure enters tau_y and the Coulomb law (13): at t^n (Lagged) or at t^{n+1}
-/// (Nonlinear: the nonlinear pressure system solved by NOX in every step).
-enum class PressureCoupling { Lagged, Nonlinear };
-enum class Side : int { Left = 0, Right = 1, Bottom = 2, Top = 3 };
-/// Coulomb: the sliding law (11)-(13) with c_F = tan(delta) (1 - exp(-m_c |u_t|)) (Bottom and
-/// Right only; delta = 0 is free slip).
-enum class WallKind { NoSlip, FreeSlip, MovingLid, Periodic, Coulomb };
-/// Velocity profile over the opening of the silo gate (free-surface chute, left side).
-///  Uniform: u = u_in over 0 <= z < h_in (plug flow out of the silo; the documented default).
-///  CopyInterior: the shape of the first interior 2D column u(0, z) scaled to the mean u_in
-///                (eq. 25, d/dx d/dz u = 0; used by the 2D side of a 1D-to-2D interface).
-enum class InflowShape { Uniform, CopyInterior };
-/// How the pressure of eq. (26), p = g cos(zeta)(h - z)(1 + K)/2, enters at the inflow side.
-///  None:      not at all (a silo gate; the inflow column's pressure is solved like any other).
-///  Dirichlet: the paper's literal reading: the material cells of the inflow column are
-///             Dirichlet cells of the projection with that p, so continuity is not enforced
-///             there (measured: the 2D flow behind a 1D-to-2D interface decelerates).
-///  Rheology:  the inflow column stays in the projection (div u = 0, p solved); eq. (26) is the
-///             pressure its yield stress tau_y = tau_c + tau_p p sees (the 1D side's pressure
-///             at x_IF, where the 2D pressure is still adjusting to the injected state).
-enum class InflowPressure { None, Dirichlet, Rheology };
-
-/// Boundary condition of one side of the box. `velocity` is the tangential wall velocity of a
-/// moving lid (u on bottom/top, w on left/right).
-struct Wall {
-  WallKind kind = WallKind::NoSlip;
-  double velocity = 0.0;
-};
-
-/// Numerical parameters of the N-DAM ("N-DAM" sublist).
-struct NdamConfig {
-  Grid grid{64, 32, 1.0, 0.15};
-  Momentum momentum = Momentum::Implicit;
-  double cfl = 0.5;
-  double gamma = 0.5;  ///< donor-cell weight of the convective terms (0: central, 1: upwind)
-  std::array<Wall, 4> walls{};  ///< by Side
-  /// Obstacle rectangles {x0, x1, z0, z1} [m]: cells whose centre lies inside are obstacles
-  /// (rigid, no-slip surfaces).
-  std::vector<std::array<double, 4>> obstacles;
-  Teuchos::ParameterList momentum_solver, pressure_solver;
-  PressureCoupling pressure_coupling = PressureCoupling::Lagged;
-  Teuchos::ParameterList pressure_newton;  ///< "Pressure Newton": NonlinearSystem's list
-  /// 'Pressure Newton failure' = Continue: an unconverged step keeps NOX's best iterate
-  /// (counted in summary.json) instead of stopping the run.
-  bool newton_failure_continue = false;
-
-  // --- free-surface chute (issue 4) ----------------------------------------------------------
-  /// Material tracked by markers: cells with markers are Fluid/Surface, the others Empty (p = 0).
-  bool free_surface = false;
-  int markers_per_cell = 4;  ///< n_x = n_z of the marker sub-lattice
-  /// Initial layer z < initial_depth on initial_x0 <= x < initial_x1 (0: no initial material).
-  double initial_depth = 0.0, initial_x0 = 0.0, initial_x1 = 1e300;
-  /// Silo gate at x = x0 (left side): {h_in, u_in} at time t; empty function: no inflow.
-  std::function<std::array<double, 2>(double t)> inflow;
-  InflowShape inflow_shape = InflowShape::Uniform;
-  /// How the pressure of eq. (26) enters on the inflow column (see InflowPressure).
-  InflowPressure inflow_pressure = InflowPressure::None;
-  double inflow_K = 1.0;  ///< earth pressure coefficient K of eq. (26)
-  bool outflow_right = false;  ///< open outflow at x = x0 + L (else the Right wall)
-  /// Open outflow: u continues beyond the last interior face with the lagged (t^n) gradient of
-  /// the last two interior faces instead of zero gradient (the 2D side of a 2D-to-1D interface
-  /// inside an accelerating flow; the channel's own open end keeps zero gradient).
-  bool outflow_extrapolate = false;
-  double m_c = 100.0;  ///< [s/m] regularisation of the Coulomb friction factor (12)
-  double x0 = 0.0;     ///< grid origin along the slope [m] (2D subdomains of the coupled model)
-
-  bool periodic_x() const { return walls[0].kind == WallKind::Periodic; }
-  static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
-  /// Reads a validated "N-DAM" list. `user` is the list as written (or null); the box length
-  /// is the Channel's; `ranks` is checked against the columns (each rank needs >= 2 columns).
-  static NdamConfig from_parameters(const Teuchos::ParameterList& validated,
-                                    const Teuchos::ParameterList* user,
-                                    const core::Channel& channel, int ranks);
-};
-
-/// Physical constants the N-DAM uses (passed, never global).
-struct NdamPhysics {
-  double gx = 0.0;    ///< g sin(zeta)
-  double gz = -9.81;  ///< -g cos(zeta)
-  double density = 1440.0;
-  double tan_delta = 0.0;  ///< tan of the bed friction angle (Coulomb walls)
-  static NdamPhysics from(const core::Material& m, const core::Channel& c);
-};
-
 class NdamSolver final : public core::Stepper {
  public:
   /// Builds the grid slab of this rank on `comm` (collective) with the fluid at rest and the
   /// pressure of eq. (10) (hydrostatic).
   NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo, const NdamPhysics& phys);
+  /// Builds the box from a given state (collective): a restart, or a subdomain rebuilt for a new
+  /// extent; `state` must have the grid of `cfg` (InputError otherwise). The initial layer of
+  /// `cfg` is not seeded. `stats` continues the run's counters.
+  NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo, const NdamPhysics& phys,
+             const NdamState& state, const NdamStatistics& stats = {});
   ~NdamSolver() override;
 
   // Stepper
@@ -157,10 +93,15 @@ class NdamSolver final : public core::Stepper {
   void load(const io::Checkpoint& c) override;
   void report(nlohmann::json& stats) const override;
 
-  // Inspection (tests, benchmark, the coupling of the next issue).
+  // Inspection (tests, benchmark, the coupling).
   const Grid& grid() const { return cfg_.grid; }
-  const Slab& slab() const { return slab_; }
+  const Slab& slab() const { return mac_.slab; }
   const NdamConfig& config() const { return cfg_; }
+  /// The run's counters and timers, with the preconditioner work of this box's linear systems
+  /// folded in (what a box rebuilt for a new extent continues from).
+  NdamStatistics statistics() const;
+  /// The state the next step reads (collective).
+  NdamState export_state() const;
   /// Global fields gathered on every rank, index gi * nz + k: u on the right face of cell
   /// (gi, k), w on its top face, p and nu_eff at its centre.
   std::vector<double> gather_u() const;
@@ -176,10 +117,10 @@ class NdamSolver final : public core::Stepper {
   /// Nonlinear and a pressure-dependent system; otherwise default-constructed).
   const solvers::NonlinearStats& last_newton_solve() const { return newton_stats_; }
   /// Newton solves so far (steps that solved the nonlinear pressure system).
-  long long newton_solves() const { return newton_solves_; }
+  long long newton_solves() const { return stats_.newton_solves; }
   /// Cell flag of global cell (gi, k).
   CellFlag flag(int gi, int k) const {
-    return flags_[static_cast<std::size_t>(gi * cfg_.grid.nz + k)];
+    return mac_.flags[static_cast<std::size_t>(gi * cfg_.grid.nz + k)];
   }
   /// Largest nu_eff of the current state [m^2/s].
   double max_nu_eff() const;
@@ -212,90 +153,110 @@ class NdamSolver final : public core::Stepper {
   /// Mass (area per unit width) through the two ends during the last accepted step.
   Transfer last_transfer() const { return transfer_; }
   const MarkerSet* markers() const { return markers_.get(); }
-  /// Seconds spent in the last step's phases: "momentum", "pressure", "other".
+  /// Seconds spent in the last step's phases: "momentum", "pressure", "markers", "other".
   double last_seconds(const std::string& phase) const;
 
- private:
-  struct Ref;  // a velocity sample as a linear function of the unknowns (see ndam_solver.cpp)
+  /// Internal to the step files: a velocity sample as a linear function of the unknowns
+  /// (defined in src/ndam/stencil.hpp), and the velocity components.
+  struct Ref;
   enum Comp { U = 0, W = 1 };
+
+ private:
+  NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo, const NdamPhysics& phys,
+             const NdamState* state, const NdamStatistics& stats);
+  void setup();                              // layout, fields, markers, linear systems
+  void rest_state();                         // the initial layer at rest, eq. (10) pressure
+  void import_state(const NdamState& s);     // the given state (restart, rebuilt box)
+  // --- boundaries.cpp: walls, moving lid, Coulomb slip ghosts, friction factors, ghosts -----
   Ref u_ref(int i, int k) const;
   Ref w_ref(int i, int k) const;
   Ref ref(Comp c, int i, int k) const;
-  Ref surface_face_ref(Comp c, int i, int k) const;
-  long long p_gid(int gi, int k) const { return static_cast<long long>(gi) * cfg_.grid.nz + k; }
-  bool fluid(int gi, int k) const;  // material cell (Fluid or Surface); false outside
-  bool p_unknown(int gi, int k) const;  // pressure unknown: Fluid (Surface/Empty: Dirichlet)
-  CellFlag gflag(int gi, int k) const;  // flag of global cell; Obstacle outside the box
-  void assemble_pressure();
-  void update_flags_from_markers();
-  void surface_pressure(Field& target) const;
-  void apply_free_surface(Field& u, Field& w) const;
+  void fill_velocity_ghosts(Field& u, Field& w) const;
   void boundary_faces(Field& u, Field& w) const;
+  void fill_scalar_ghosts(Field& s) const;
+  void update_friction(const Field& p_yield);
+  // --- inflow.cpp: the silo gate and the 1D-to-2D interface (eqs. 24-27) -------------------
+  void gate_state(double dt);
   double inflow_face(int k) const;  // u(-1, k) of the gate (material velocity of the open rows)
   double inflow_p26(int k) const;   // eq. (26) at the centre of row k of the inflow column
   double outflow_slope(int k) const;  // lagged u difference of the last two faces (extrapolate)
+  void inject_markers(double dt, MarkerSet& markers) const;
+  // --- free_surface.cpp: markers, flags, surface pressure and velocity conditions ----------
+  Ref surface_face_ref(Comp c, int i, int k) const;
+  void surface_conditions();
+  void surface_pressure(Field& target) const;
+  void apply_free_surface(Field& u, Field& w) const;
+  void advect_markers(double dt);
+  void update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
+                    std::vector<std::uint8_t>& mask) const;
   void update_profile_cache();
-  bool u_unknown(int i, int k) const;  // u(i,k) an unknown: fluid on both sides, not a wall
-  bool w_unknown(int i, int k) const;
+  // --- viscosity.cpp (eqs. 4-6) ---------------------------------------------------------------
+  void update_viscosity(const Field& p_yield);
+  // --- momentum.cpp: the predictor (eqs. 8-9) ---------------------------------------------------
   double nu_corner(int i, int k) const;
   template <class Emit> void viscous_u(int i, int k, Emit&& e) const;
   template <class Emit> void viscous_w(int i, int k, Emit&& e) const;
   double conv_u(int i, int k) const;
   double conv_w(int i, int k) const;
-
-  void exchange(Field& f) const;
-  void fill_velocity_ghosts(Field& u, Field& w) const;
-  void fill_scalar_ghosts(Field& s) const;
-  void update_viscosity(const Field& p_yield);
-  void update_friction(const Field& p_yield);
-  void project(double dt);  // predictor, projection, pressure update into *_new_ (timed)
-  void project_at(const std::vector<double>& q, double dt);  // P(q): tau_y, (13) at q
-  void solve_pressure_system(double dt);  // 'Nonlinear': NOX on R(q) = q - P(q)
-  bool pressure_dependent() const;  // tau_p != 0 or a Coulomb side: the system is nonlinear
+  void explicit_force(bool pressure_gradient, Field& fu, Field& fw) const;
   void predict_velocity(double dt, Field& us, Field& ws);
+  // --- projection.cpp: the pressure projection (eqs. 10, 14) ----------------------------------
+  void assemble_pressure();
+  void project(double dt);  // predictor, projection, pressure update into *_new_ (timed)
   void solve_pressure(double dt, const Field& us, const Field& ws, Field& phi);
   void correct_velocity(double dt, const Field& phi, Field& us, Field& ws) const;
   void normalise_pressure(Field& p) const;
   void initial_pressure();
   double divergence(const Field& u, const Field& w, int i, int k) const;
-  std::vector<double> gather_cells(const Field& f, bool z_major) const;
-  std::vector<double> gather_columns(const std::vector<double>& local) const;
-  void scatter_cells(const std::vector<double>& global, Field& f) const;
+  double max_abs_divergence(const Field& u, const Field& w) const;  // collective
+  // --- pressure_system.cpp: the nonlinear pressure system (NOX) --------------------------------
+  void project_at(const std::vector<double>& q, double dt);  // P(q): tau_y, (13) at q
+  void solve_pressure_system(double dt);  // 'Nonlinear': NOX on R(q) = q - P(q)
+  bool pressure_dependent() const;  // tau_p != 0 or a Coulomb side: the system is nonlinear
 
   MPI_Comm comm_;
   NdamConfig cfg_;
   Rheology rheo_;
   NdamPhysics phys_;
-  Slab slab_;
-  int left_ = 0, right_ = 0;  // neighbour ranks (MPI_PROC_NULL at walls)
+  MacLayout mac_;  // grid, slab, flags, unknowns, halo exchange
 
-  Field u_, w_, p_, nu_;        // current state (ghosts filled)
+  // state at t^n (ghosts filled) and the tentative state of step()
+  Field u_, w_, p_, nu_;
   Field nu_rot_;                 // nu_eff(u^n, p^n) of the rotational pressure update
-  Field u_new_, w_new_, p_new_;  // tentative state of step()
+  Field u_new_, w_new_, p_new_;
   Field u_star_, w_star_;        // u* of the last step (rotational pressure update)
-  std::vector<CellFlag> flags_;  // all cells of the box (every rank), gi * nz + k
-  std::vector<std::uint8_t> empty_mask_;  // empty_side bits of Surface cells (global)
-  std::unique_ptr<MarkerSet> markers_;
   Field normD_;                  // ||D|| of the cells (free surface: surface stress)
   Field p_dir_;                  // Dirichlet phi of non-unknown cells in solve_pressure
-  std::vector<double> bed_a_;    // Coulomb ghost factor of u(i,-1), local columns + G
-  std::vector<double> wall_a_;   // Coulomb ghost factor of w(nx, k) at the right wall
-  std::array<double, 2> inflow_now_{0.0, 0.0};  // {h_in, u_in} of the current step
-  InflowMass inflow_mass_;                        // exact mass of a step (1D-to-2D), optional
-  double inflow_owed_ = 0.0, inflow_owed_new_ = 0.0;  // carried inflow mass [m^2]
-  std::vector<double> col_h_, col_u_, col_w_;  // column states of the whole box (every rank)
-  Transfer transfer_;
-  double mass0_ = 0.0;
-  MarkerMass marker_mass_;  // of the current state (collective mass() cached at accept)
-  double sec_mark_ = 0.0;
-  bool flags_changed_ = true;
-  bool has_obstacles_ = false;
-  long long pin_ = 0;        // pressure cell pinned to phi = 0 (the first fluid cell)
-  long long fluid_cells_ = 0;
   double t_ = 0.0, t_new_ = 0.0;
   long steps_ = 0;
 
+  // free surface: the markers at t^n, the tentative markers and flags of step()
+  std::unique_ptr<MarkerSet> markers_, markers_new_;
+  std::vector<CellFlag> flags_new_;
+  std::vector<std::uint8_t> mask_new_;
+  MarkerMass marker_mass_, marker_mass_new_;  // of the current / tentative markers
+  double mass0_ = 0.0;
+  std::vector<double> col_h_, col_u_, col_w_;  // column states of the whole box (every rank)
+  Transfer transfer_;
+  bool flags_changed_ = true;
+  bool has_obstacles_ = false;
+
+  // boundaries: Coulomb ghost factors of u(i,-1) (local columns + G) and of w(nx, k)
+  std::vector<double> bed_a_, wall_a_;
+
+  // the gate / 1D-to-2D inflow
+  std::array<double, 2> inflow_now_{0.0, 0.0};  // {h_in, u_in} of the current step
+  InflowMass inflow_mass_;                        // exact mass of a step (1D-to-2D), optional
+  double inflow_owed_ = 0.0, inflow_owed_new_ = 0.0;  // carried inflow mass [m^2]
+
+  // projection
+  long long pin_ = 0;        // pressure cell pinned to phi = 0 (the first fluid cell)
+  long long fluid_cells_ = 0;
   std::unique_ptr<solvers::LinearSystem> pressure_, momentum_;
+  double momentum_dt_ = -1.0;  // dt of the assembled momentum matrix (reused when unchanged)
+  solvers::SolveStats mom_stats_, p_stats_;
+  double max_div_new_ = 0.0;   // max |div u| of the tentative state
+
   // Nonlinear pressure coupling: the NOX solver (built at the first step that needs it), the
   // time step of the current solve, the trial pressure and the last evaluated q.
   std::unique_ptr<solvers::NonlinearSystem> newton_;
@@ -304,22 +265,9 @@ class NdamSolver final : public core::Stepper {
   std::vector<double> q_evaluated_;
   solvers::NonlinearStats newton_stats_;
   bool newton_failed_ = false;
-  long long newton_solves_ = 0, newton_iters_ = 0, newton_krylov_ = 0, newton_evals_ = 0;
-  int newton_max_iters_ = 0;
   std::array<double, 3> newton_fail_cell_{0.0, 0.0, 0.0};  // x, z, |q - P(q)| of a failure
-  long long newton_continued_ = 0;  // unconverged steps kept ('Pressure Newton failure')
-  double newton_continued_worst_ = 0.0;
-  double newton_worst_residual_ = 0.0, newton_seconds_ = 0.0;
-  double momentum_dt_ = -1.0;  // dt of the assembled momentum matrix (reused when unchanged)
-  solvers::SolveStats mom_stats_, p_stats_;
-  double sec_mom_ = 0, sec_p_ = 0, sec_other_ = 0;
-  // cumulative phase seconds of the accepted steps (summary.json)
-  double total_mom_ = 0, total_p_ = 0, total_other_ = 0, total_mark_ = 0;
 
-  // statistics for summary.json
-  double dt_min_ = 0.0, dt_max_ = 0.0, max_div_ = 0.0, max_div_new_ = 0.0;
-  long long p_iters_ = 0, m_iters_ = 0, p_solves_ = 0, m_solves_ = 0, failed_solves_ = 0;
-  double worst_p_res_ = 0.0, worst_m_res_ = 0.0;
+  NdamStatistics stats_;  // counters and timers of the run
 };
 
 }  // namespace granflow::ndam

@@ -21,11 +21,25 @@ namespace granflow::ndam {
 
 enum class RheologyModel { Newtonian, Bingham, DruckerPrager };
 
+/// Below m s = kRegularisationSeries, regularised_inverse() uses the series m (1 - m s / 2): it
+/// avoids 0 / 0 at s = 0, and the next term, m (m s)^2 / 6, is below round-off there.
+inline constexpr double kRegularisationSeries = 1e-8;
+/// (1 - exp(-m s)) / s for s >= 0 (-> m as s -> 0): the regularisation of the yield stress
+/// (eq. 5, m = m_y, s = ||D||) and of the Coulomb friction factor (eq. 12, m = m_c, s = |u_b|).
+inline double regularised_inverse(double m, double s) {
+  const double x = m * s;
+  return x < kRegularisationSeries ? m * (1.0 - 0.5 * x) : -std::expm1(-x) / s;
+}
+
+/// The default is the paper's: Drucker-Prager for dry grains (no cohesion) of the default
+/// Material; getValidParameters() takes its defaults from a default-constructed one. A Newtonian
+/// or Bingham rheology says so (model, and tau_p = 0).
 struct Rheology {
-  RheologyModel model = RheologyModel::Newtonian;
+  RheologyModel model = RheologyModel::DruckerPrager;
   double nu = 0.003;    ///< [m^2/s] constant kinematic viscosity
   double tau_c = 0.0;   ///< [m^2/s^2] yield stress (Bingham) or cohesion (Drucker-Prager)
-  double tau_p = 0.0;   ///< [-] pressure coefficient of the yield stress (sin phi)
+  /// [-] pressure coefficient of the yield stress: sin(phi) (Drucker-Prager), 0 otherwise
+  double tau_p = std::sin(core::deg2rad(core::Material{}.internal_friction_deg));
   double m_y = 100.0;   ///< [s] regularisation exponent
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
@@ -44,10 +58,7 @@ struct Rheology {
   double nu_eff(double normD, double p) const {
     const double ty = yield_stress(p);
     if (ty == 0.0) return nu;
-    const double x = m_y * normD;
-    // (1 - exp(-x)) / ||D|| = m_y (1 - exp(-x)) / x, evaluated without cancellation for small x.
-    const double f = x < 1e-8 ? m_y * (1.0 - 0.5 * x) : -std::expm1(-x) / normD;
-    return nu + ty * f;
+    return nu + ty * regularised_inverse(m_y, normD);
   }
   std::string name() const;
 };

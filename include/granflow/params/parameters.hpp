@@ -8,6 +8,7 @@
 // parameter, the value and what is allowed.
 #include <Teuchos_ParameterList.hpp>
 #include <Teuchos_RCP.hpp>
+#include <Teuchos_XMLObject.hpp>
 
 #include <stdexcept>
 #include <string>
@@ -38,8 +39,46 @@ void add_string(ParameterList& pl, const std::string& name, const std::string& d
                 const std::string& doc);
 void add_bool(ParameterList& pl, const std::string& name, bool def, const std::string& doc);
 
-/// Read an XML file into a ParameterList (no validation). Throws InputError on a missing file or
-/// malformed XML.
+// ---------------------------------------------------------------------------------------------
+// Strict reading of values as written in a scene. Teuchos's XML reader converts a value itself
+// with std::stod-like leniency ("50abc" -> 50, "abc" -> 0, "0x10" -> 16, "{0.5 0.7}" -> {0.5})
+// before any validator sees it, so scenes are converted here instead: the whole text must be
+// the number (blanks around it aside), finite and representable; an integer has no fraction or
+// exponent and fits an int. On failure the functions return false and say why in `why`.
+// ---------------------------------------------------------------------------------------------
+bool parse_double(const std::string& text, double& value, std::string& why);
+bool parse_int(const std::string& text, int& value, std::string& why);
+/// "true" or "false" (what Teuchos writes); nothing else.
+bool parse_bool(const std::string& text, bool& value, std::string& why);
+/// Valid UTF-8 without control characters (tab and line breaks aside): names and free text end up
+/// in summary.json and in messages.
+bool check_text(const std::string& text, std::string& why);
+/// Text for a message: quoted, with bytes that are not printable UTF-8 written as \xNN.
+std::string shown(const std::string& text);
+
+/// Lists nested deeper than this in a scene file are refused before the XML is parsed (Teuchos
+/// copies nested lists recursively; 10000 levels overflow the stack). Scenes need at most 5.
+constexpr int kMaxNesting = 32;
+
+/// The XML tree of a scene file: well-formed, nested at most kMaxNesting deep; no value
+/// converted yet. Throws InputError naming the file (and the line) otherwise.
+struct XmlDocument {
+  std::string file;
+  Teuchos::XMLObject root;
+};
+XmlDocument parse_xml(const std::string& file);
+
+/// Convert the document into a ParameterList, strictly. Every element must be a <Parameter> or a
+/// <ParameterList> with a name unique in its list. With `valid` (the scene's valid list), each
+/// parameter must have the type of its valid entry, its text must parse strictly as that type
+/// and pass the entry's Teuchos validator, and names must be valid (except inside pass-through
+/// lists such as MueLu's, which Teuchos does not validate); without it (or for names `valid`
+/// does not declare) the declared type must be int, double, bool, string or an Array of those
+/// three and the text must parse strictly. Throws InputError("<file>: parameter '<path>' = "
+/// "<text as entered>: <why>; allowed: <what>").
+RCP<ParameterList> to_parameter_list(const XmlDocument& doc, const ParameterList* valid);
+
+/// parse_xml + to_parameter_list without a valid list.
 RCP<ParameterList> read_xml(const std::string& file);
 
 /// Validate `user` against `valid` (recursively) and fill in defaults. Teuchos exceptions are

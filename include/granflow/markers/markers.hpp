@@ -67,11 +67,6 @@ struct Marker {
   long long id = 0;         ///< unique over all ranks (seeding: from the cell; injection: a counter)
 };
 
-/// Bits of the empty-side mask of a Surface cell (NaSt2D's surface cell types).
-namespace empty_side {
-constexpr std::uint8_t Left = 1, Right = 2, Bottom = 4, Top = 8;
-}
-
 /// Global marker bookkeeping (areas in m^2 of the x-z plane, i.e. m^3 per metre of width).
 struct MarkerMass {
   long long count = 0;     ///< markers now
@@ -161,10 +156,8 @@ class MarkerSet {
   /// Markers per owned cell (i * nz + k).
   std::vector<int> cell_counts() const;
   /// Sets the flags of the owned cells (size nx_local * nz): cells flagged Obstacle (in `flags`
-  /// or by set_obstacles) stay Obstacle; a cell without markers is Empty; a cell with markers
-  /// is Surface when at least one of its 4 neighbours is Empty, else Fluid. Neighbours outside
-  /// the box (walls, inflow, outflow, top) count as not empty; across a periodic side they are
-  /// the wrapped cells. If `empty_sides` is given it receives per cell the mask of
+  /// or by set_obstacles) stay Obstacle; the others by the free-surface rule classify_cell
+  /// (grid.hpp), with the neighbours' emptiness across the slab edges from the neighbour ranks. If `empty_sides` is given it receives per cell the mask of
   /// empty_side bits of its Empty neighbours (0 unless Surface).
   void update_flags(std::vector<CellFlag>& flags, std::vector<std::uint8_t>* empty_sides = nullptr) const;
 

@@ -1,0 +1,96 @@
+#pragma once
+// The MAC layout of one N-DAM box: everything a change of the box's extent rebuilds.
+//
+//  - the grid (grid.hpp) and this rank's x-slab of it, with the neighbour ranks;
+//  - the cell flags of the whole box on every rank (the stencils near a slab edge need the
+//    neighbours' flags) and the empty-side masks of the Surface cells;
+//  - the classification of the unknowns: a cell is a pressure unknown when it is Fluid, a face
+//    is a velocity unknown when both its cells hold material (Fluid or Surface) and it is not a
+//    wall-normal face;
+//  - the halo exchange of a Field's ghost columns and the gather/scatter of owned cells.
+//
+// Numbering: pressure unknown of cell (gi, k) is gi * nz + k (contiguous per slab); the momentum
+// system interleaves u and w of a cell as 2 (gi nz + k) and 2 (gi nz + k) + 1.
+#include "granflow/ndam/grid.hpp"
+
+#include <mpi.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace granflow::ndam {
+
+class MacLayout {
+ public:
+  MacLayout() = default;
+  /// This rank's slab of `grid` on `comm` (collective only in the sense that every rank builds
+  /// its own); every cell Fluid. Throws params::InputError when a rank would get fewer than two
+  /// columns.
+  MacLayout(MPI_Comm comm, const Grid& grid, bool periodic_x);
+
+  MPI_Comm comm = MPI_COMM_NULL;
+  Grid grid;
+  Slab slab;
+  int left = MPI_PROC_NULL, right = MPI_PROC_NULL;  ///< neighbour ranks (MPI_PROC_NULL at walls)
+  bool periodic = false;                            ///< x-periodic box
+  /// The material cells of column 0 are Dirichlet cells of the projection (the pressure of
+  /// eq. 26 imposed at a 1D-to-2D interface, InflowPressure::Dirichlet).
+  bool dirichlet_inflow_column = false;
+  std::vector<CellFlag> flags;            ///< all cells of the box, gi * nz + k
+  std::vector<std::uint8_t> empty_mask;   ///< empty_side bits of the Surface cells, gi * nz + k
+
+  long long p_gid(int gi, int k) const { return static_cast<long long>(gi) * grid.nz + k; }
+  /// Flag of global cell (gi, k); Obstacle outside the box (walls), wrapped when periodic.
+  CellFlag gflag(int gi, int k) const {
+    const int nx = grid.nx, nz = grid.nz;
+    if (k < 0 || k >= nz) return CellFlag::Obstacle;
+    if (periodic) gi = (gi % nx + nx) % nx;
+    else if (gi < 0 || gi >= nx) return CellFlag::Obstacle;
+    return flags[static_cast<std::size_t>(gi * nz + k)];
+  }
+  /// Material cell (Fluid or Surface): carries momentum. False outside the box.
+  bool fluid(int gi, int k) const {
+    const CellFlag f = gflag(gi, k);
+    return f == CellFlag::Fluid || f == CellFlag::Surface;
+  }
+  /// Pressure unknown: a Fluid cell (Surface, Empty and obstacle cells are Dirichlet cells).
+  bool p_unknown(int gi, int k) const {
+    if (dirichlet_inflow_column && gi == 0 && !periodic && fluid(gi, k)) return false;
+    return gflag(gi, k) == CellFlag::Fluid;
+  }
+  /// u(i, k) (local column i) is an unknown: material on both sides; the faces at x = 0 and
+  /// x = L (non-periodic) and all faces touching an obstacle cell are fixed.
+  bool u_unknown(int i, int k) const {
+    const int gi = slab.i0 + i;
+    if (!periodic && (gi < 0 || gi >= grid.nx - 1)) return false;
+    return fluid(gi, k) && fluid(gi + 1, k);
+  }
+  bool w_unknown(int i, int k) const {
+    const int gi = slab.i0 + i;
+    if (k < 0 || k >= grid.nz - 1) return false;
+    if (!periodic && (gi < 0 || gi >= grid.nx)) return false;
+    return fluid(gi, k) && fluid(gi, k + 1);
+  }
+  /// Mask of the Empty neighbours of global Surface cell (gi, k) (wrapped when periodic).
+  std::uint8_t mask(int gi, int k) const {
+    const int gw = periodic ? (gi % grid.nx + grid.nx) % grid.nx : gi;
+    return empty_mask[static_cast<std::size_t>(gw * grid.nz + k)];
+  }
+
+  /// Free-surface flags of the whole box from the marker count of every cell (gi * nz + k, all
+  /// ranks' columns) by the rule classify_cell (grid.hpp); obstacle cells stay. Writes into
+  /// `flags_out` and `mask_out` (which may be this layout's own).
+  void classify(const std::vector<double>& counts, std::vector<CellFlag>& flags_out,
+                std::vector<std::uint8_t>& mask_out) const;
+
+  /// Fills the G ghost columns of f from the neighbour slabs (periodic wrap included).
+  void exchange(Field& f) const;
+  /// The ranks' `local` vectors concatenated in rank order, on every rank (collective).
+  std::vector<double> gather_columns(const std::vector<double>& local) const;
+  /// Owned cells of f on every rank: x-major (gi * nz + k) or z-major (k * nx + gi).
+  std::vector<double> gather_cells(const Field& f, bool z_major) const;
+  /// The owned cells of f from a global x-major array.
+  void scatter_cells(const std::vector<double>& global, Field& f) const;
+};
+
+}  // namespace granflow::ndam

@@ -1,0 +1,80 @@
+#pragma once
+// Counters and timers of an N-DAM run, in one place. They belong to the run, not to the box: a
+// subdomain that is rebuilt for a new extent (the domain manager) hands them to its successor,
+// so summary.json counts every step of the run.
+#include <algorithm>
+
+namespace granflow::ndam {
+
+struct NdamStatistics {
+  // time steps
+  double dt_min = 0.0, dt_max = 0.0;
+  double max_divergence = 0.0;  ///< largest max |div u| of an accepted state [1/s]
+
+  // linear solves (Belos): pressure projection and implicit momentum predictor
+  long long pressure_solves = 0, pressure_iterations = 0;
+  long long momentum_solves = 0, momentum_iterations = 0;
+  long long unconverged_solves = 0;
+  double worst_pressure_residual = 0.0, worst_momentum_residual = 0.0;
+  // preconditioner work of the linear systems that earlier layouts owned (added at a rebuild)
+  long long retired_pressure_setups = 0, retired_momentum_setups = 0;
+  long long retired_pressure_patterns = 0, retired_momentum_patterns = 0;
+  double retired_pressure_setup_seconds = 0.0, retired_momentum_setup_seconds = 0.0;
+
+  // the nonlinear pressure system (NOX), 'Pressure coupling' = Nonlinear
+  long long newton_solves = 0, newton_iterations = 0, newton_krylov = 0, newton_evaluations = 0;
+  int newton_max_iterations = 0;
+  long long newton_continued = 0;  ///< unconverged steps kept ('Pressure Newton failure')
+  double newton_continued_worst = 0.0, newton_worst_residual = 0.0, newton_seconds = 0.0;
+
+  // wall time of the last step by phase, and the totals over the accepted steps [s]
+  double step_momentum = 0.0, step_pressure = 0.0, step_markers = 0.0, step_other = 0.0;
+  double total_momentum = 0.0, total_pressure = 0.0, total_markers = 0.0, total_other = 0.0;
+
+  /// Books a step of size dt (at step()).
+  void record_dt(double dt) {
+    dt_min = dt_max == 0.0 ? dt : std::min(dt_min, dt);
+    dt_max = std::max(dt_max, dt);
+  }
+  /// The counters of two boxes whose parts became one box (the domain manager).
+  void merge(const NdamStatistics& o) {
+    dt_min = dt_max == 0.0 ? o.dt_min : (o.dt_max == 0.0 ? dt_min : std::min(dt_min, o.dt_min));
+    dt_max = std::max(dt_max, o.dt_max);
+    max_divergence = std::max(max_divergence, o.max_divergence);
+    pressure_solves += o.pressure_solves;
+    pressure_iterations += o.pressure_iterations;
+    momentum_solves += o.momentum_solves;
+    momentum_iterations += o.momentum_iterations;
+    unconverged_solves += o.unconverged_solves;
+    worst_pressure_residual = std::max(worst_pressure_residual, o.worst_pressure_residual);
+    worst_momentum_residual = std::max(worst_momentum_residual, o.worst_momentum_residual);
+    retired_pressure_setups += o.retired_pressure_setups;
+    retired_momentum_setups += o.retired_momentum_setups;
+    retired_pressure_patterns += o.retired_pressure_patterns;
+    retired_momentum_patterns += o.retired_momentum_patterns;
+    retired_pressure_setup_seconds += o.retired_pressure_setup_seconds;
+    retired_momentum_setup_seconds += o.retired_momentum_setup_seconds;
+    newton_solves += o.newton_solves;
+    newton_iterations += o.newton_iterations;
+    newton_krylov += o.newton_krylov;
+    newton_evaluations += o.newton_evaluations;
+    newton_max_iterations = std::max(newton_max_iterations, o.newton_max_iterations);
+    newton_continued += o.newton_continued;
+    newton_continued_worst = std::max(newton_continued_worst, o.newton_continued_worst);
+    newton_worst_residual = std::max(newton_worst_residual, o.newton_worst_residual);
+    newton_seconds += o.newton_seconds;
+    total_momentum += o.total_momentum;
+    total_pressure += o.total_pressure;
+    total_markers += o.total_markers;
+    total_other += o.total_other;
+  }
+  /// Adds the last step's phase times to the totals (at accept()).
+  void accept_times() {
+    total_momentum += step_momentum;
+    total_pressure += step_pressure;
+    total_markers += step_markers;
+    total_other += step_other;
+  }
+};
+
+}  // namespace granflow::ndam

@@ -1,0 +1,344 @@
+// The domain manager (domain_manager.hpp): evaluates the shallowness indicators along the
+// channel and moves the 1D-2D interfaces.
+#include "granflow/coupling/domain_manager.hpp"
+
+#include "granflow/dam/dam_solver.hpp"
+#include "granflow/io/fields.hpp"
+#include "granflow/ndam/ndam_solver.hpp"
+#include "granflow/params/parameters.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace granflow::coupling {
+
+namespace {
+using Clock = std::chrono::steady_clock;
+
+std::string describe(const std::vector<Subdomain>& parts) {
+  std::ostringstream os;
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    os << (i ? " | " : "") << parts[i].kind << " " << parts[i].x0 << " " << parts[i].x1;
+  return os.str();
+}
+
+// A slot-index interval of one model.
+struct Run {
+  bool two_d = false;
+  int s0 = 0, s1 = 0;  // slots [s0, s1)
+};
+
+std::vector<Run> runs(const std::vector<char>& two_d) {
+  std::vector<Run> r;
+  for (int s = 0; s < static_cast<int>(two_d.size()); ++s) {
+    if (r.empty() || r.back().two_d != (two_d[static_cast<std::size_t>(s)] != 0))
+      r.push_back(Run{two_d[static_cast<std::size_t>(s)] != 0, s, s + 1});
+    else
+      r.back().s1 = s + 1;
+  }
+  return r;
+}
+}  // namespace
+
+DomainManager::DomainManager(const Decomposition& d,
+                             std::shared_ptr<const SubdomainFactory> factory)
+    : d_(d), factory_(std::move(factory)) {
+  const double L = factory_->length(), dx1 = factory_->dx_1d();
+  const double dx2 = factory_->has_2d() ? factory_->dx_2d() : dx1;
+  slot_ = std::max(dx1, dx2);
+  const double ratio = slot_ / std::min(dx1, dx2);
+  if (std::abs(ratio - std::round(ratio)) > 1e-6)
+    throw params::InputError(
+        "parameter 'granflow->Decomposition->Layout' = Dynamic needs grids with common nodes: "
+        "the 2D column width L / (N-DAM->Cells x) = " + params::str(dx2) +
+        " m and the 1D cell width L / (DAM->Cells) = " + params::str(dx1) +
+        " m must be multiples of one another; allowed: e.g. DAM->Cells = 2 x N-DAM->Cells x");
+  nslots_ = static_cast<int>(std::lround(L / slot_));
+  if (d_.min_length < 4.0 * slot_ - 1e-12)
+    throw params::InputError("parameter 'granflow->Decomposition->Minimum length' = " +
+                             params::str(d_.min_length) +
+                             " m is below four slots of the Dynamic layout (4 x " +
+                             params::str(slot_) +
+                             " m, the smallest subdomain either model is built with)");
+  calm_since_.assign(static_cast<std::size_t>(nslots_), -1.0);
+}
+
+std::vector<Piece> DomainManager::target(const CoupledModel& model) {
+  const auto& parts = model.parts();
+  const double t = model.time(), L = factory_->length();
+  const ChannelField f = channel_field(parts, 0, parts.size());
+  const auto& ph = factory_->dam_physics();
+  const double beta = ph.g_cos * ph.K_act;
+  // Material is where the depth reaches one row of 2D markers (a thinner layer, e.g. the tip
+  // of a front, cannot be represented by the 2D model, and its eps says nothing about the
+  // flow), and at least ten dry depths of the DAM (as the a priori layout).
+  double h_wet = 10.0 * factory_->dam_config().dry_depth;
+  if (factory_->has_2d()) {
+    const auto& c = factory_->two_d().cfg;
+    h_wet = std::max(h_wet, c.grid.dz() / c.markers_per_cell);
+  }
+  std::vector<core::Profile> prof(parts.size());
+  for (std::size_t p = 0; p < parts.size(); ++p)
+    if (parts[p].ndam) prof[p] = parts[p].ndam->profile();
+  slots_.assign(static_cast<std::size_t>(nslots_), SlotState{});
+  std::vector<char> wet(slots_.size(), 0);
+  for (int s = 0; s < nslots_; ++s) {
+    SlotState& q = slots_[static_cast<std::size_t>(s)];
+    q.x0 = s * slot_;
+    q.x1 = s + 1 == nslots_ ? L : (s + 1) * slot_;
+    const double xc = 0.5 * (q.x0 + q.x1);
+    const auto v = f.average(q.x0, q.x1);
+    q.h = v[0];
+    wet[static_cast<std::size_t>(s)] = q.h > h_wet;
+    q.u_mean = wet[static_cast<std::size_t>(s)] ? v[1] / q.h : 0.0;
+    std::size_t p = 0;
+    while (p + 1 < parts.size() && xc > parts[p].x1) ++p;
+    q.two_d = parts[p].ndam != nullptr;
+    if (!wet[static_cast<std::size_t>(s)]) continue;
+    q.eps = q.u_mean != 0.0 ? beta * q.h / (q.u_mean * q.u_mean)
+                            : std::numeric_limits<double>::infinity();
+    if (q.two_d) {
+      // the paper's eps of the 2D model, |w_mean| / |u_mean| of the column at xc
+      const auto& pr = prof[p];
+      const double dx = parts[p].ndam->grid().dx();
+      const auto c = static_cast<std::size_t>(
+          std::clamp(static_cast<int>(std::floor((xc - parts[p].x0) / dx)), 0,
+                     static_cast<int>(pr.eps.size()) - 1));
+      q.eps = std::max(q.eps, pr.eps[c]);
+    }
+  }
+  // shocks on the 1D side: u_mean drops across the slot by more than the wave speed
+  for (int s = 1; s + 1 < nslots_; ++s) {
+    SlotState& q = slots_[static_cast<std::size_t>(s)];
+    // a front (a dry neighbour) is not a shock
+    if (!d_.shock_indicator || q.two_d || !wet[static_cast<std::size_t>(s)] ||
+        !wet[static_cast<std::size_t>(s - 1)] ||
+        !wet[static_cast<std::size_t>(s + 1)])
+      continue;
+    const double du = slots_[static_cast<std::size_t>(s - 1)].u_mean -
+                      slots_[static_cast<std::size_t>(s + 1)].u_mean;
+    // a jump, not the gentle deceleration of roll waves: more than the wave speed, and to
+    // less than half the upstream speed
+    q.shock = du > std::sqrt(beta * q.h) &&
+              std::abs(slots_[static_cast<std::size_t>(s + 1)].u_mean) <
+                  0.5 * std::abs(slots_[static_cast<std::size_t>(s - 1)].u_mean);
+  }
+  std::vector<char> need(slots_.size(), 0), want(slots_.size(), 0);
+  for (int s = 0; s < nslots_; ++s) {
+    SlotState& q = slots_[static_cast<std::size_t>(s)];
+    const bool rest = wet[static_cast<std::size_t>(s)] && std::abs(q.u_mean) < d_.rest_speed;
+    q.needs_2d = wet[static_cast<std::size_t>(s)] && (q.eps >= d_.eps_threshold || rest || q.shock);
+    need[static_cast<std::size_t>(s)] = q.needs_2d;
+    want[static_cast<std::size_t>(s)] = q.two_d;
+  }
+  // 2D within 'Margin' of every slot that needs it
+  const int reach = static_cast<int>(std::ceil(d_.margin / slot_ - 1e-9));
+  std::vector<char> near(slots_.size(), 0);
+  for (int s = 0; s < nslots_; ++s)
+    if (need[static_cast<std::size_t>(s)])
+      for (int r = std::max(0, s - reach); r <= std::min(nslots_ - 1, s + reach); ++r)
+        near[static_cast<std::size_t>(r)] = 1;
+  // calm: wet, outside the margin and eps below the lower threshold; a dry column is neither
+  // (it keeps its model)
+  for (int s = 0; s < nslots_; ++s) {
+    SlotState& q = slots_[static_cast<std::size_t>(s)];
+    const bool calm = wet[static_cast<std::size_t>(s)] && !near[static_cast<std::size_t>(s)] &&
+                      q.eps < d_.eps_lower;
+    double& since = calm_since_[static_cast<std::size_t>(s)];
+    since = calm ? (since < 0.0 ? t : since) : -1.0;
+  }
+  for (int s = 0; s < nslots_; ++s)
+    if (near[static_cast<std::size_t>(s)]) want[static_cast<std::size_t>(s)] = 1;
+  // A 2D subdomain gives up calm columns from its ends only (its interfaces move; it does not
+  // split where a calm column lies inside it), and is never cut below 'Minimum length'; one
+  // that is calm all over becomes 1D as a whole.
+  const int min_slots = static_cast<int>(std::ceil(d_.min_length / slot_ - 1e-9));
+  auto releasable = [&](int s) {
+    const auto q = static_cast<std::size_t>(s);
+    return !near[q] && calm_since_[q] >= 0.0 && t - calm_since_[q] >= d_.hold_time - 1e-12;
+  };
+  for (const Run& r : runs(want)) {
+    if (!r.two_d) continue;
+    bool all = true;  // a subdomain calm all over goes as a whole
+    for (int q = r.s0; q < r.s1 && all; ++q) all = releasable(q);
+    if (all) {
+      for (int q = r.s0; q < r.s1; ++q) want[static_cast<std::size_t>(q)] = 0;
+      continue;
+    }
+    int lo = r.s0, hi = r.s1;
+    while (hi - lo > min_slots && releasable(hi - 1)) want[static_cast<std::size_t>(--hi)] = 0;
+    while (hi - lo > min_slots && releasable(lo)) want[static_cast<std::size_t>(lo++)] = 0;
+  }
+  // Minimum length: short 1D gaps and end pieces next to 2D become 2D; short new 2D subdomains
+  // grow to the minimum (keeping the slots they have).
+  for (int pass = 0; pass < 3; ++pass) {
+    const auto rs = runs(want);
+    for (std::size_t i = 0; i < rs.size(); ++i) {
+      const Run& r = rs[i];
+      if (r.s1 - r.s0 >= min_slots || rs.size() == 1) continue;
+      if (!r.two_d) {
+        for (int s = r.s0; s < r.s1; ++s) want[static_cast<std::size_t>(s)] = 1;
+      } else {
+        int lo = r.s0, hi = r.s1;
+        while (hi - lo < min_slots) {
+          if (lo > 0) --lo;
+          if (hi - lo < min_slots && hi < nslots_) ++hi;
+          if (lo == 0 && hi == nslots_) break;
+        }
+        for (int s = lo; s < hi; ++s) want[static_cast<std::size_t>(s)] = 1;
+      }
+    }
+  }
+  std::vector<Piece> out;
+  for (const Run& r : runs(want))
+    out.push_back(Piece{r.two_d ? "2D" : "1D", r.s0 * slot_, r.s1 == nslots_ ? L : r.s1 * slot_});
+  return out;
+}
+
+bool DomainManager::adapt(CoupledModel& model) {
+  const double t = model.time();
+  if (t < next_check_ - 1e-12 * (1.0 + t)) return false;
+  const auto t0 = Clock::now();
+  next_check_ = (std::floor(t / d_.check_interval + 1e-9) + 1.0) * d_.check_interval;
+  ++checks_;
+  const std::vector<Piece> plan = target(model);
+  const auto& parts = model.parts();
+  // current and target model per slot
+  auto slot_of = [&](double x) { return static_cast<int>(std::lround(x / slot_)); };
+  std::vector<char> cur(static_cast<std::size_t>(nslots_), 0), tgt(cur.size(), 0);
+  for (const auto& p : parts)
+    for (int s = slot_of(p.x0); s < slot_of(p.x1); ++s) cur[static_cast<std::size_t>(s)] = p.ndam != nullptr;
+  for (const auto& p : plan)
+    for (int s = slot_of(p.x0); s < slot_of(p.x1); ++s) tgt[static_cast<std::size_t>(s)] = p.kind == "2D";
+  int sa = -1, sb = -1;
+  for (int s = 0; s < nslots_; ++s)
+    if (cur[static_cast<std::size_t>(s)] != tgt[static_cast<std::size_t>(s)]) {
+      if (sa < 0) sa = s;
+      sb = s;
+    }
+  seconds_checks_ += std::chrono::duration<double>(Clock::now() - t0).count();
+  if (sa < 0) return false;
+  const auto t1 = Clock::now();
+  // the parts that hold the changed slots, and neighbours they merge with
+  auto part_of = [&](int s) {
+    std::size_t p = 0;
+    while (p + 1 < parts.size() && slot_of(parts[p].x1) <= s) ++p;
+    return p;
+  };
+  std::size_t first = part_of(sa), last = part_of(sb);
+  std::vector<Piece> sub;
+  for (;;) {
+    const int s0 = slot_of(parts[first].x0), s1 = slot_of(parts[last].x1);
+    sub.clear();
+    for (const Run& r : runs(tgt)) {
+      const int a = std::max(r.s0, s0), b = std::min(r.s1, s1);
+      if (b > a) sub.push_back(Piece{r.two_d ? "2D" : "1D", a * slot_, b * slot_});
+    }
+    // the ends keep the exact positions of the parts they replace
+    sub.front().x0 = parts[first].x0;
+    sub.back().x1 = parts[last].x1;
+    for (auto& p : sub)
+      for (const auto& q : parts) {
+        if (slot_of(q.x0) == slot_of(p.x0)) p.x0 = q.x0;
+        if (slot_of(q.x1) == slot_of(p.x1)) p.x1 = q.x1;
+      }
+    bool grown = false;
+    if (first > 0 && (parts[first - 1].ndam != nullptr) == (sub.front().kind == "2D")) {
+      --first;
+      grown = true;
+    }
+    if (last + 1 < parts.size() && (parts[last + 1].ndam != nullptr) == (sub.back().kind == "2D")) {
+      ++last;
+      grown = true;
+    }
+    if (!grown) break;
+  }
+  Move mv;
+  mv.t = t;
+  mv.before = describe(parts);
+  auto rebuilt = rebuild(parts, first, last - first + 1, sub, *factory_, mv.record);
+  model.replace_parts(first, last - first + 1, std::move(rebuilt));
+  mv.after = describe(model.parts());
+  mv.seconds = std::chrono::duration<double>(Clock::now() - t1).count();
+  log_.push_back(mv);
+  return true;
+}
+
+void DomainManager::save(io::Checkpoint& c) const {
+  c.set("manager/calm_since", calm_since_);
+  c.set("manager/next_check", next_check_);
+  c.set("manager/checks", static_cast<double>(checks_));
+  std::vector<double> rec;
+  for (const auto& m : log_)
+    rec.insert(rec.end(), {m.t, m.record.mass_before, m.record.mass_after,
+                           m.record.momentum_before, m.record.momentum_after, m.record.remainder,
+                           m.record.remainder_given_back, m.record.remainder_to_inflow,
+                           static_cast<double>(m.record.columns_to_2d),
+                           static_cast<double>(m.record.columns_to_1d), m.seconds});
+  c.set("manager/moves", rec);
+}
+
+void DomainManager::load(const io::Checkpoint& c) {
+  calm_since_ = c.array("manager/calm_since");
+  if (calm_since_.size() != static_cast<std::size_t>(nslots_))
+    throw params::InputError("checkpoint: the domain manager's slots (" +
+                             std::to_string(calm_since_.size()) + ") do not match the scene (" +
+                             std::to_string(nslots_) + ")");
+  next_check_ = c.scalar("manager/next_check");
+  checks_ = static_cast<long>(c.scalar("manager/checks"));
+  const auto& rec = c.array("manager/moves");
+  log_.clear();
+  for (std::size_t i = 0; i + 11 <= rec.size(); i += 11) {
+    Move m;
+    m.t = rec[i];
+    m.record.mass_before = rec[i + 1];
+    m.record.mass_after = rec[i + 2];
+    m.record.momentum_before = rec[i + 3];
+    m.record.momentum_after = rec[i + 4];
+    m.record.remainder = rec[i + 5];
+    m.record.remainder_given_back = rec[i + 6];
+    m.record.remainder_to_inflow = rec[i + 7];
+    m.record.columns_to_2d = static_cast<int>(rec[i + 8]);
+    m.record.columns_to_1d = static_cast<int>(rec[i + 9]);
+    m.seconds = rec[i + 10];
+    m.before = m.after = "(before the restart)";
+    log_.push_back(m);
+  }
+}
+
+void DomainManager::report(nlohmann::json& s) const {
+  nlohmann::json moves = nlohmann::json::array();
+  double sec = 0.0, worst = 0.0;
+  for (const auto& m : log_) {
+    const double defect = m.record.defect();
+    worst = std::max(worst, std::abs(defect));
+    sec += m.seconds;
+    moves.push_back({{"t", m.t},
+                     {"before", m.before},
+                     {"after", m.after},
+                     {"mass_before", m.record.mass_before},
+                     {"mass_after", m.record.mass_after},
+                     {"mass_defect", m.record.defect()},
+                     {"momentum_before", m.record.momentum_before},
+                     {"momentum_after", m.record.momentum_after},
+                     {"marker_remainder", m.record.remainder},
+                     {"remainder_given_back", m.record.remainder_given_back},
+                     {"columns_to_2d", m.record.columns_to_2d},
+                     {"columns_to_1d", m.record.columns_to_1d},
+                     {"seconds", m.seconds}});
+  }
+  s["domain_manager"] = {{"slot_width", slot_},
+                         {"checks", checks_},
+                         {"moves", static_cast<long long>(log_.size())},
+                         {"largest_mass_defect_of_a_move", worst},
+                         {"seconds_checks", seconds_checks_},
+                         {"seconds_moves", sec},
+                         {"log", moves}};
+}
+
+}  // namespace granflow::coupling

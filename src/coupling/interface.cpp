@@ -1,0 +1,86 @@
+// Interfaces of the coupled model (interface.hpp): the conditions each side of an interface
+// reads, and the mass that crosses it.
+#include "granflow/coupling/interface.hpp"
+
+#include "granflow/dam/dam_solver.hpp"
+#include "granflow/ndam/ndam_solver.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace granflow::coupling {
+
+std::array<double, 2> Subdomain::sample(double x) const {
+  if (dam) return dam->sample(x);
+  const auto cs = ndam->column_state(x);
+  return {cs.h, cs.u_mean};
+}
+
+std::array<double, 2> Subdomain::last_transfer() const {
+  if (dam) return dam->last_transfer();
+  const auto t = ndam->last_transfer();
+  return {t.in, t.out};
+}
+
+Interface::Interface(Subdomain& upstream, Subdomain& downstream, const InterfaceOptions& options)
+    : up_(&upstream), down_(&downstream), opt_(options) {
+  if (up_->one_d() && down_->one_d()) type_ = Type::OneDOneD;
+  else if (!up_->one_d() && down_->one_d()) type_ = Type::TwoDToOneD;
+  else if (up_->one_d() && !down_->one_d()) type_ = Type::OneDToTwoD;
+  else
+    throw std::invalid_argument("coupling: two touching 2D subdomains are one subdomain");
+}
+
+std::string Interface::name() const {
+  switch (type_) {
+    case Type::OneDOneD: return "1D | 1D";
+    case Type::TwoDToOneD: return "2D -> 1D";
+    case Type::OneDToTwoD: return "1D -> 2D";
+  }
+  return "";
+}
+
+void Interface::connect() {
+  const Interface* self = this;
+  // The downstream DAM's left ghosts take the upstream state where they lie, inside the
+  // upstream subdomain: the DAM's reconstruction (1D | 1D) or the 2D columns (eqs. 19-21).
+  if (down_->one_d()) {
+    dam::DamBoundary b;
+    b.type = core::BoundaryType::Inflow;
+    b.inflow = [self](double, double x) { return self->up_->sample(x); };
+    down_->dam->set_boundary(0, std::move(b));
+  }
+  // The upstream DAM's right ghosts read the downstream side (1D | 1D, and the 2D columns
+  // behind a 1D -> 2D interface).
+  if (up_->one_d()) {
+    dam::DamBoundary b;
+    b.type = core::BoundaryType::Inflow;
+    b.inflow = [self](double, double x) { return self->down_->sample(x); };
+    up_->dam->set_boundary(1, std::move(b));
+  }
+  if (type_ == Type::OneDToTwoD) {
+    // eq. (24): u_mean and h of the 1D side at x_IF; eq. (25): profile shape of the first
+    // interior 2D column; eq. (26) with K as the options say. Mass: the 2D side lets in exactly
+    // what the DAM upstream lets out in the same step (its ledger term), not h u_mean of the
+    // reconstruction.
+    const double x = this->x();
+    down_->ndam->set_inflow([self, x](double) { return self->up_->sample(x); },
+                            ndam::InflowShape::CopyInterior, opt_.pressure, opt_.K,
+                            [self](double t, double dt) { return self->pending_mass(t, dt); });
+  }
+}
+
+std::optional<double> Interface::pending_mass(double t, double dt) const {
+  if (!up_->dam) return std::nullopt;
+  const auto p = up_->dam->pending_step();
+  if (!p || std::abs(p->t0 - t) > 1e-12 * (1.0 + t) || std::abs(p->dt - dt) > 1e-12 * dt)
+    return std::nullopt;
+  return p->out;
+}
+
+void Interface::book() {
+  mass_[0] += up_->last_transfer()[1];
+  mass_[1] += down_->last_transfer()[0];
+}
+
+}  // namespace granflow::coupling

@@ -1,0 +1,277 @@
+// N-DAM boundaries: the rigid walls, the moving lid, the Coulomb sliding law (11)-(13) as a
+// Robin ghost value, the tangential ghost rows and columns of the velocity, and the ghosts of
+// cell-centred scalars.
+//
+// Every velocity sample a stencil touches is a `Ref` (stencil.hpp): a * (unknown) + b. Beyond a
+// wall the tangential ghost is the mirror of the first inner value,
+//   no-slip     u_g = -u_1,          moving lid  u_g = 2 U - u_1,      free slip  u_g = u_1,
+//   Coulomb     u_g = a_F u_1  with a_F = 1 - dz beta N / nu_b from the sliding law (13),
+// and wall-normal faces are fixed (u = 0). The free surface, the silo gate and the open outflow
+// give the other known faces (free_surface.cpp, inflow.cpp).
+#include "stencil.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace granflow::ndam {
+
+namespace {
+// The tangential ghost beyond a wall of kind wl from the inside sample r (see above); `coulomb`
+// is the Robin factor a_F of a Coulomb wall.
+NdamSolver::Ref wall_ghost(const Wall& wl, NdamSolver::Ref r, double coulomb) {
+  if (wl.kind == WallKind::Coulomb) {
+    r.a *= coulomb;
+    r.b *= coulomb;
+    return r;
+  }
+  const double s = wl.kind == WallKind::FreeSlip ? 1.0 : -1.0;
+  r.a *= s;
+  r.b = s * r.b + (wl.kind == WallKind::MovingLid ? 2.0 * wl.velocity : 0.0);
+  return r;
+}
+}  // namespace
+
+NdamSolver::Ref NdamSolver::u_ref(int i, int k) const {
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
+  if (k < 0 || k >= nz) {
+    // tangential ghost below the bottom / above the top wall
+    // (Coulomb: the bed only, the Robin ghost u(i,-1) = a u(i,0) of update_friction)
+    return wall_ghost(cfg_.walls[k < 0 ? 2 : 3], u_ref(i, k < 0 ? 0 : nz - 1),
+                      bed_a_[static_cast<std::size_t>(i + Field::G)]);
+  }
+  Ref r;
+  r.loc = u_.index(i, k);
+  if (!mac_.u_unknown(i, k)) {
+    // A face inside an obstacle (no fluid on either side) next to a fluid face above or below
+    // is the tangential ghost of the obstacle's no-slip surface: minus that fluid face.
+    // Every other fixed face is wall- or obstacle-normal: u = 0.
+    const int gi = mac_.slab.i0 + i;
+    if (has_obstacles_ && !mac_.fluid(gi, k) && !mac_.fluid(gi + 1, k)) {
+      for (int kn : {k + 1, k - 1})
+        if (mac_.u_unknown(i, kn)) {
+          Ref m = u_ref(i, kn);
+          m.a = -m.a;
+          m.b = -m.b;
+          return m;
+        }
+    }
+    if (cfg_.free_surface) {
+      if (!cfg_.periodic_x() && gi <= -1) {  // silo gate at x = x0: inflow below h_in, wall above
+        r.b = inflow_face(k);
+        return r;
+      }
+      if (!cfg_.periodic_x() && gi >= nx - 1) {
+        if (cfg_.outflow_right) {
+          // Zero gradient. When the last column holds a Surface cell whose left neighbour is
+          // empty (the tail of a layer leaving through the open end), that cell's left face
+          // follows this one (surface_face_ref), so this one must not follow it back (an endless
+          // recursion): it keeps its value, like the other known faces of an empty region.
+          if (!mac_.fluid(nx - 2, k) && mac_.fluid(nx - 1, k)) {
+            r.a = 1.0;
+            return r;
+          }
+          Ref m = u_ref(nx - 2 - mac_.slab.i0, k);
+          m.b += outflow_slope(k);
+          return m;
+        }
+        return r;  // rigid wall: u = 0
+      }
+      // A face next to an Empty cell: its value is set by the free-surface conditions
+      // (apply_free_surface). When it is the empty side of a Surface cell whose opposite side
+      // is not empty, it follows that opposite face with their lagged difference,
+      // u_f = u_o + (u_f^n - u_o^n): the normal stress of the Surface cell is then the lagged
+      // (continuity) value, and the implicit stencil holds no lagged copy of a neighbouring
+      // unknown (that explicit coupling with weight nu dt / dx^2 was measured unstable for
+      // nu dt / dx^2 > 1). Other faces of the empty region are known constants: a = 1,
+      // gid = -1 reads the field itself.
+      if (const Ref m = surface_face_ref(U, i, k); m.a != 0.0 || m.gid >= 0) return m;
+      r.a = 1.0;
+      return r;
+    }
+    return r;
+  }
+  const int gi = ((mac_.slab.i0 + i) % nx + nx) % nx;
+  r.gid = 2 * mac_.p_gid(gi, k);
+  r.a = 1.0;
+  return r;
+}
+
+NdamSolver::Ref NdamSolver::w_ref(int i, int k) const {
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
+  Ref r;
+  r.loc = w_.index(i, k);
+  if (k <= -1 || k >= nz - 1) return r;  // bottom and top walls: w = 0
+  const int gi = mac_.slab.i0 + i;
+  if (!cfg_.periodic_x() && (gi < 0 || gi >= nx)) {
+    // tangential ghost left of x = 0 / right of x = L: mirror of the first inner column
+    // (Coulomb: the end wall only, the Robin ghost w(nx, k) = a w(nx-1, k) of update_friction)
+    return wall_ghost(cfg_.walls[gi < 0 ? 0 : 1], w_ref(gi < 0 ? i + 1 : i - 1, k),
+                      gi >= nx ? wall_a_[static_cast<std::size_t>(k)] : 1.0);
+  }
+  if (!mac_.w_unknown(i, k)) {
+    // inside an obstacle next to a fluid face left or right: no-slip tangential ghost
+    if (has_obstacles_ && !mac_.fluid(gi, k) && !mac_.fluid(gi, k + 1)) {
+      for (int in : {i + 1, i - 1})
+        if (mac_.w_unknown(in, k)) {
+          Ref m = w_ref(in, k);
+          m.a = -m.a;
+          m.b = -m.b;
+          return m;
+        }
+    }
+    if (cfg_.free_surface) {  // next to an Empty cell (see u_ref)
+      if (const Ref m = surface_face_ref(W, i, k); m.a != 0.0 || m.gid >= 0) return m;
+      r.a = 1.0;
+    }
+    return r;  // obstacle-normal face: w = 0
+  }
+  r.gid = 2 * mac_.p_gid((gi % nx + nx) % nx, k) + 1;
+  r.a = 1.0;
+  return r;
+}
+
+NdamSolver::Ref NdamSolver::ref(Comp c, int i, int k) const {
+  return c == U ? u_ref(i, k) : w_ref(i, k);
+}
+
+void NdamSolver::fill_velocity_ghosts(Field& u, Field& w) const {
+  mac_.exchange(u);
+  mac_.exchange(w);
+  boundary_faces(u, w);
+  if (cfg_.free_surface) {
+    // The free-surface faces of the owned columns and of one ghost column on each side are set
+    // redundantly on both ranks from the same data (each such face depends only on its own
+    // surface cell), then the exchange makes the ghosts the owners' values.
+    apply_free_surface(u, w);
+    mac_.exchange(u);
+    mac_.exchange(w);
+    boundary_faces(u, w);
+  }
+  const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  // u: tangential ghost rows below and above
+  for (int i = -G; i < nxl + G; ++i) {
+    u(i, -1) = detail::value(u_ref(i, -1), u);
+    u(i, nz) = detail::value(u_ref(i, nz), u);
+  }
+}
+
+void NdamSolver::boundary_faces(Field& u, Field& w) const {
+  const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  // wall-normal faces and the columns beyond the walls; the silo gate (free surface) gives
+  // u = u_in(z) below h_in and 0 above; an open outflow copies the last interior face.
+  if (!cfg_.periodic_x()) {
+    if (mac_.slab.i0 == 0)
+      for (int k = -1; k <= nz; ++k) {
+        const double v = cfg_.free_surface && k >= 0 && k < nz ? inflow_face(k) : 0.0;
+        u(-1, k) = u(-2, k) = v;
+      }
+    if (mac_.slab.i0 + nxl == cfg_.grid.nx)
+      for (int k = -1; k <= nz; ++k) {
+        const double v =
+            cfg_.free_surface && cfg_.outflow_right ? u(nxl - 2, k) + outflow_slope(k) : 0.0;
+        u(nxl - 1, k) = u(nxl, k) = u(nxl + 1, k) = v;
+      }
+  }
+  // w: walls top and bottom, tangential ghosts left and right
+  for (int i = -G; i < nxl + G; ++i) {
+    w(i, -1) = 0.0;
+    w(i, nz - 1) = 0.0;
+    w(i, nz) = 0.0;
+  }
+  if (!cfg_.periodic_x()) {
+    if (mac_.slab.i0 == 0)
+      for (int k = 0; k < nz - 1; ++k) w(-2, k) = w(-1, k) = detail::value(w_ref(-1, k), w);
+    if (mac_.slab.i0 + nxl == cfg_.grid.nx)
+      for (int k = 0; k < nz - 1; ++k) w(nxl + 1, k) = w(nxl, k) = detail::value(w_ref(nxl, k), w);
+  }
+  // Obstacles: the fixed faces (normal: 0; inside next to fluid: no-slip mirror) in the columns
+  // the convective stencils of the owned faces reach.
+  if (has_obstacles_)
+    for (int i = -1; i <= nxl; ++i) {
+      const int gi = mac_.slab.i0 + i;
+      if (!cfg_.periodic_x() && (gi < 0 || gi >= cfg_.grid.nx)) continue;
+      for (int k = 0; k < nz; ++k) {
+        if (!mac_.u_unknown(i, k) && (cfg_.periodic_x() || gi < cfg_.grid.nx - 1))
+          u(i, k) = detail::value(u_ref(i, k), u);
+        if (k < nz - 1 && !mac_.w_unknown(i, k)) w(i, k) = detail::value(w_ref(i, k), w);
+      }
+    }
+}
+
+// Cell-centred scalars (p, phi, nu_eff): zero normal gradient at walls.
+void NdamSolver::fill_scalar_ghosts(Field& s) const {
+  mac_.exchange(s);
+  const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  if (!cfg_.periodic_x()) {
+    if (mac_.slab.i0 == 0)
+      for (int k = 0; k < nz; ++k) s(-1, k) = s(-2, k) = s(0, k);
+    if (mac_.slab.i0 + nxl == cfg_.grid.nx)
+      for (int k = 0; k < nz; ++k) s(nxl, k) = s(nxl + 1, k) = s(nxl - 1, k);
+  }
+  for (int i = -G; i < nxl + G; ++i) {
+    s(i, -1) = s(i, 0);
+    s(i, nz) = s(i, nz - 1);
+  }
+}
+
+// Coulomb sliding law (11)-(13) on the bed (and the end wall) as a Robin ghost value. At the
+// bed the tangential stress of the material balances the friction,
+//   nu_eff du/dz = c_F sgn(u_b) N,  N = p + 2 nu_eff du/dx (compressive normal stress, 13),
+//   c_F = tan(delta) (1 - exp(-m_c |u_b|))                              (12),
+// which is written as nu_b (u(i,0) - u(i,-1)) / dz = beta N u(i,0) with the friction per unit
+// velocity beta = c_F / |u_b| (-> tan(delta) m_c as u_b -> 0), i.e. the ghost
+//   u(i,-1) = a u(i,0),  a = 1 - dz beta N / nu_b.
+// beta, N and nu_b are lagged (t^n), the velocity is the unknown of the (implicit) momentum
+// step: a positive drag that stays stable for any dt (Picard linearisation of the friction).
+// a is clamped at -1 (no slip): regularised friction cannot hold more than sticking does.
+// delta = 0 gives a = 1: free slip. p at the bed: the mean of the material cells above the face
+// extrapolated hydrostatically by dz/2 (p_b = p_0 + g cos(zeta) dz / 2).
+void NdamSolver::update_friction(const Field& p_yield) {
+  const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  auto beta = [&](double ub) {  // c_F / |u_b| (12)
+    return phys_.tan_delta * regularised_inverse(cfg_.m_c, std::abs(ub));
+  };
+  bed_a_.assign(static_cast<std::size_t>(nxl + 2 * G), 1.0);
+  if (cfg_.walls[2].kind == WallKind::Coulomb)
+    for (int i = -G; i < nxl + G; ++i) {
+      const int gi = mac_.slab.i0 + i;
+      const int ir = std::min(i + 1, nxl + G - 1), il = std::max(i - 1, -G);
+      double pb = 0.0;
+      int n = 0;
+      for (int c : {i, ir})
+        if (mac_.fluid(gi + (c - i), 0)) {
+          pb += p_yield(c, 0);
+          ++n;
+        }
+      if (n == 0) continue;
+      pb = pb / n + 0.5 * dz * std::abs(phys_.gz);
+      const double nub = 0.5 * (nu_(i, 0) + nu_(ir, 0));
+      const double dudx = (u_(ir, 0) - u_(il, 0)) / ((ir - il) * dx);
+      const double N = std::max(0.0, pb + 2.0 * nub * dudx);
+      const double a = 1.0 - dz * beta(u_(i, 0)) * N / nub;
+      bed_a_[static_cast<std::size_t>(i + G)] = std::max(-1.0, a);
+    }
+  wall_a_.assign(static_cast<std::size_t>(nz), 1.0);
+  if (cfg_.walls[1].kind == WallKind::Coulomb && mac_.slab.i0 + nxl == cfg_.grid.nx)
+    for (int k = 0; k < nz - 1; ++k) {
+      const int i = nxl - 1, gi = mac_.slab.i0 + i;
+      double pw = 0.0;
+      int n = 0;
+      for (int kk : {k, k + 1})
+        if (mac_.fluid(gi, kk)) {
+          pw += p_yield(i, kk);
+          ++n;
+        }
+      if (n == 0) continue;
+      // the end wall holds the downslope gravity: p grows by g sin(zeta) dx / 2 to the wall
+      pw = pw / n + 0.5 * dx * std::max(0.0, phys_.gx);
+      const double nuw = 0.5 * (nu_(i, k) + nu_(i, k + 1));
+      const double dwdz = (w_(i, k + 1) - w_(i, std::max(k - 1, -1))) / ((k + 1 - std::max(k - 1, -1)) * dz);
+      const double N = std::max(0.0, pw + 2.0 * nuw * dwdz);
+      const double a = 1.0 - dx * beta(w_(i, k)) * N / nuw;
+      wall_a_[static_cast<std::size_t>(k)] = std::max(-1.0, a);
+    }
+}
+
+}  // namespace granflow::ndam

@@ -1,0 +1,226 @@
+// N-DAM free surface: marker-and-cell (paper section 2.3; NaSt2D, Griebel et al. 1998, ch. 7).
+//
+// The material is the set of marker particles (markers.hpp). From their counts every cell is
+// Fluid, Surface (material next to an Empty cell, with the mask of its empty sides) or Empty
+// (flag rule classify_cell, grid.hpp). At the surface the stress is free:
+//   normal stress   p = 2 nu_eff n.D.n in a Surface cell (n.D.n of its empty sides), p = 0 in
+//                   Empty cells, plus the hydrostatic offset of the marker depth inside the cell;
+//   tangential      zero shear stress at corners touching an Empty cell (momentum.cpp);
+//   continuity      div u = 0 in every Surface cell, the empty faces taking the remainder.
+// The depth h and the depth-averaged u of eq. (21) of each column come from the markers.
+#include "stencil.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace granflow::ndam {
+
+// The empty-side face (c, i, k) of a Surface cell as its opposite face plus the lagged
+// difference; a Ref with a = 0 and gid = -1 (and b = 0) when the face is not of that kind.
+NdamSolver::Ref NdamSolver::surface_face_ref(Comp c, int i, int k) const {
+  const int gi = mac_.slab.i0 + i;
+  // the two cells of the face: (gi, k) and (gi + 1, k) for u, (gi, k) and (gi, k + 1) for w
+  const int g2 = c == U ? gi + 1 : gi, k2 = c == U ? k : k + 1;
+  const bool m1 = mac_.fluid(gi, k), m2 = mac_.fluid(g2, k2);
+  if (m1 == m2) return Ref{};
+  const int gs = m1 ? gi : g2, ks = m1 ? k : k2;  // the Surface cell
+  if (mac_.gflag(gs, ks) != CellFlag::Surface) return Ref{};
+  const std::uint8_t mask = mac_.mask(gs, ks);
+  std::uint8_t opp;
+  int io = i, ko = k;
+  if (c == U) {
+    opp = m1 ? empty_side::Left : empty_side::Right;
+    io = m1 ? i - 1 : i + 1;
+  } else {
+    opp = m1 ? empty_side::Bottom : empty_side::Top;
+    ko = m1 ? k - 1 : k + 1;
+  }
+  if (mask & opp) return Ref{};
+  Ref m = ref(c, io, ko);
+  const Field& f = c == U ? u_ : w_;
+  m.b += f(i, k) - f(io, ko);
+  return m;
+}
+
+// Dirichlet values of the projection increment: Surface cells go to the normal-stress value
+// (surface_pressure), Empty cells stay at p = 0, and with InflowPressure::Dirichlet the material
+// cells of the inflow column take eq. (26). The pressure matrix follows the flags.
+void NdamSolver::surface_conditions() {
+  Field ps(mac_.slab.nx_local, cfg_.grid.nz);
+  surface_pressure(ps);
+  p_dir_.fill(0.0);
+  for (int i = 0; i < mac_.slab.nx_local; ++i)
+    for (int k = 0; k < cfg_.grid.nz; ++k) {
+      const CellFlag f = mac_.gflag(mac_.slab.i0 + i, k);
+      if (f == CellFlag::Surface || f == CellFlag::Empty) p_dir_(i, k) = ps(i, k) - p_(i, k);
+      if (cfg_.inflow_pressure == InflowPressure::Dirichlet && mac_.slab.i0 + i == 0 &&
+          mac_.fluid(0, k))
+        p_dir_(i, k) = inflow_p26(k) - p_(i, k);  // eq. (26) as the Dirichlet value
+    }
+  mac_.exchange(p_dir_);
+  if (flags_changed_) {
+    assemble_pressure();
+    flags_changed_ = false;
+  }
+}
+
+// Markers of the step (the tentative set): Heun's method in u^n and u^{n+1}, both with the
+// free-surface values of the flags of t^n; then the gate injects, and the new flags follow from
+// the new marker counts (update_flags).
+void NdamSolver::advect_markers(double dt) {
+  *markers_new_ = *markers_;
+  markers_new_->advect(dt, u_, w_, u_new_, w_new_);
+  inject_markers(dt, *markers_new_);
+  marker_mass_new_ = markers_new_->mass();
+}
+
+// Flags of the markers m (collective): every rank gathers the marker counts of the whole box and
+// applies the flag rule (MacLayout::classify, the rule classify_cell of grid.hpp).
+void NdamSolver::update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
+                              std::vector<std::uint8_t>& mask) const {
+  const auto counts = m.cell_counts();
+  std::vector<double> local(counts.begin(), counts.end());
+  mac_.classify(mac_.gather_columns(local), flags, mask);
+}
+
+// Normal-stress condition of the free surface (NaSt2D): p = 2 nu_eff n.D.n in a Surface cell,
+// n.D.n the normal strain rate of its empty sides (du/dx for left/right, dw/dz for
+// bottom/top), averaged over them when there are several (the mixed normals of corner cells are
+// not resolved). Empty cells: p = 0. Evaluated with u^n and nu_eff(t^n) (lagged).
+void NdamSolver::surface_pressure(Field& target) const {
+  const int nz = cfg_.grid.nz;
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  for (int i = 0; i < mac_.slab.nx_local; ++i)
+    for (int k = 0; k < nz; ++k) {
+      const int gi = mac_.slab.i0 + i;
+      const CellFlag f = mac_.gflag(gi, k);
+      if (f == CellFlag::Empty) target(i, k) = 0.0;
+      if (f != CellFlag::Surface) continue;
+      const std::uint8_t m = mac_.mask(gi, k);
+      const double dudx = (u_(i, k) - u_(i - 1, k)) / dx, dwdz = (w_(i, k) - w_(i, k - 1)) / dz;
+      double sum = 0.0;
+      int n = 0;
+      if (m & (empty_side::Left | empty_side::Right)) {
+        sum += dudx * (((m & empty_side::Left) ? 1 : 0) + ((m & empty_side::Right) ? 1 : 0));
+        n += ((m & empty_side::Left) ? 1 : 0) + ((m & empty_side::Right) ? 1 : 0);
+      }
+      if (m & (empty_side::Bottom | empty_side::Top)) {
+        sum += dwdz * (((m & empty_side::Bottom) ? 1 : 0) + ((m & empty_side::Top) ? 1 : 0));
+        n += ((m & empty_side::Bottom) ? 1 : 0) + ((m & empty_side::Top) ? 1 : 0);
+      }
+      // nu_eff at the surface itself, where p = 0: tau_y = tau_c (Drucker-Prager: 0, so
+      // nu_eff = nu). The cell's own nu_eff (with its centre pressure) would feed the lagged
+      // yield stress back into the Dirichlet value: measured unstable on the periodic incline
+      // (tau_y m_y D_nn is O(tau_y) noise in a plug where ||D|| -> 0).
+      // With the implicit momentum step the term is left out (p = 0 at the surface): lagged,
+      // it acts on the face below as an explicit viscous term of weight 2 nu dt / dz^2 and was
+      // measured unstable at nu dt / dz^2 > 0.5 (Newtonian layer, nu = 0.03, dz = 5 mm); the
+      // explicit scheme's viscous time-step limit covers it.
+      const double nus = rheo_.nu_eff(normD_(i, k), 0.0);
+      const bool viscous_normal = cfg_.momentum == Momentum::Explicit;
+      target(i, k) = n > 0 && viscous_normal ? 2.0 * nus * sum / n : 0.0;
+      // A cell whose top is empty holds the free surface at the column's marker depth z_s,
+      // not at its centre: p = 0 belongs at z_s, so the cell centre gets the hydrostatic
+      // increment g cos(zeta) (z_s - z_c) (z_s clamped into the cell). Without it the pressure
+      // below a surface would be off by up to g cos(zeta) dz / 2 (5 % of the basal pressure of
+      // a 10-cell layer, and the Coulomb friction with it).
+      if ((m & empty_side::Top) && !col_h_.empty()) {
+        const double zs = std::clamp(col_h_[static_cast<std::size_t>(gi)], k * dz, (k + 1) * dz);
+        target(i, k) += std::abs(phys_.gz) * (zs - (k + 0.5) * dz);
+      }
+    }
+}
+
+// Velocity conditions of the free surface on the columns [-1, nx_local] of (u, w):
+//  1. Surface cells: each face towards an Empty cell first takes the value of its opposite face
+//     when that one is not empty (NaSt2D's rule for cells with two adjacent empty sides), then
+//     the remaining divergence is removed in equal shares by the empty faces, so that
+//     div u = 0 in every Surface cell (continuity, NaSt2D's rule for one empty side).
+//  2. Faces between two non-material cells (the Empty region next to the surface) are
+//     extrapolated: u upward with zero normal gradient (the tangential-stress-free condition
+//     du/dz = 0 of a shallow surface), at the bed ahead of a front from the face behind it;
+//     w from a neighbouring column that touches material (ahead of/behind a front), else upward.
+//  So marker advection and the stencils of material faces see a smooth velocity.
+void NdamSolver::apply_free_surface(Field& u, Field& w) const {
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz, nxl = mac_.slab.nx_local;
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  const bool per = cfg_.periodic_x();
+  auto inside = [&](int gi) { return per || (gi >= 0 && gi < nx); };
+  for (int i = -1; i <= nxl; ++i) {
+    const int gi = mac_.slab.i0 + i;
+    if (!inside(gi)) continue;
+    for (int k = 0; k < nz; ++k) {
+      if (mac_.gflag(gi, k) != CellFlag::Surface) continue;
+      const std::uint8_t m = mac_.mask(gi, k);
+      double* face[4] = {&u(i - 1, k), &u(i, k), &w(i, k - 1), &w(i, k)};  // L R B T
+      const std::uint8_t bit[4] = {empty_side::Left, empty_side::Right, empty_side::Bottom,
+                                   empty_side::Top};
+      const double sgn[4] = {-1.0, 1.0, -1.0, 1.0}, hh[4] = {dx, dx, dz, dz};
+      for (int q = 0; q < 4; ++q) {
+        const int o = q ^ 1;  // opposite face
+        if ((m & bit[q]) && !(m & bit[o])) *face[q] = *face[o];
+      }
+      double div = 0.0;
+      int ne = 0;
+      for (int q = 0; q < 4; ++q) {
+        div += sgn[q] * *face[q] / hh[q];
+        if (m & bit[q]) ++ne;
+      }
+      for (int q = 0; q < 4; ++q)
+        if (m & bit[q]) *face[q] -= sgn[q] * div * hh[q] / ne;
+    }
+  }
+  // 2. extrapolation into the Empty region
+  for (int i = -1; i <= nxl; ++i) {
+    const int gi = mac_.slab.i0 + i;
+    if (!per && (gi < 0 || gi >= nx - 1)) continue;  // u: the boundary faces are set elsewhere
+    for (int k = 0; k < nz; ++k) {
+      if (mac_.fluid(gi, k) || mac_.fluid(gi + 1, k)) continue;
+      if (k > 0) u(i, k) = u(i, k - 1);
+      else u(i, k) = (mac_.fluid(gi - 1, k) || mac_.fluid(gi, k)) ? u(i - 1, k) : 0.0;
+    }
+  }
+  for (int i = -1; i <= nxl; ++i) {
+    const int gi = mac_.slab.i0 + i;
+    if (!inside(gi)) continue;
+    for (int k = 0; k < nz - 1; ++k) {
+      if (mac_.fluid(gi, k) || mac_.fluid(gi, k + 1)) continue;
+      if (mac_.fluid(gi - 1, k) || mac_.fluid(gi - 1, k + 1)) w(i, k) = w(i - 1, k);
+      else if (mac_.fluid(gi + 1, k) || mac_.fluid(gi + 1, k + 1)) w(i, k) = w(i + 1, k);
+      else w(i, k) = k > 0 ? w(i, k - 1) : 0.0;
+    }
+  }
+}
+
+void NdamSolver::update_profile_cache() {
+  if (!markers_) return;
+  const auto cp = markers_->profile(u_, w_);
+  std::vector<double> local;
+  for (std::size_t c = 0; c < cp.h.size(); ++c) {
+    local.push_back(cp.h[c]);
+    local.push_back(cp.u_mean[c]);
+    local.push_back(cp.w_mean[c]);
+  }
+  const auto all = mac_.gather_columns(local);
+  const int nx = cfg_.grid.nx;
+  col_h_.assign(static_cast<std::size_t>(nx), 0.0);
+  col_u_ = col_h_;
+  col_w_ = col_h_;
+  for (int gi = 0; gi < nx; ++gi) {
+    col_h_[static_cast<std::size_t>(gi)] = all[static_cast<std::size_t>(3 * gi)];
+    col_u_[static_cast<std::size_t>(gi)] = all[static_cast<std::size_t>(3 * gi + 1)];
+    col_w_[static_cast<std::size_t>(gi)] = all[static_cast<std::size_t>(3 * gi + 2)];
+  }
+}
+
+NdamSolver::ColumnState NdamSolver::column_state(double x) const {
+  ColumnState c;
+  if (col_h_.empty()) return c;
+  const int gi = std::clamp(static_cast<int>(std::floor((x - cfg_.x0) / cfg_.grid.dx())), 0,
+                            cfg_.grid.nx - 1);
+  c.h = col_h_[static_cast<std::size_t>(gi)];
+  c.u_mean = col_u_[static_cast<std::size_t>(gi)];
+  return c;
+}
+
+}  // namespace granflow::ndam

@@ -1,0 +1,144 @@
+// N-DAM inflow and outflow: the silo gate at x = x0 and the 2D side of the paper's interfaces.
+//
+//  1D-to-2D interface (eqs. 24-27): the 2D inflow column takes the mean velocity of the 1D side,
+//      u_mean^2D(x_IF) = u^1D(x_IF)                                           (24)
+//    with the profile shape of the neighbouring 2D column, d/dx d/dz u = 0      (25)
+//    the pressure of the depth-averaged model, p = g cos(zeta)(h - z)(1 + K)/2 (26)
+//    and w from continuity, du/dx + dw/dz = 0                                 (27)
+//    (w is the projection's: the inflow column stays in the projection unless eq. (26) is
+//    imposed as a Dirichlet value). With an exact mass provider the step lets in exactly what
+//    the DAM upstream let out in the same step; what cannot enter is carried (pending mass).
+//  Silo gate: u = u_in over the opening 0 <= z < h_in (Uniform) or the interior shape (25).
+//  2D-to-1D interface: an open outflow that continues the lagged velocity gradient.
+// The markers that enter are injected row by row (MarkerSet::inject) with the face velocities.
+#include "stencil.hpp"
+
+#include "granflow/params/parameters.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace granflow::ndam {
+
+namespace {
+// Exact transfer through a 1D-to-2D interface: the velocity that lets in the DAM's outgoing mass
+// is capped at kInflowSpeedup |u_mean| + kInflowSpeedupFloor of the provider. stable_dt() set
+// this step's CFL condition with the provider's u_mean, so the cap keeps the injection within
+// 1.5 times what the step was chosen for; the floor (0.1 m/s, a few per cent of the chute's
+// 0.4-3 m/s) lets mass in while the provider's u_mean is still ~0 (a front arriving).
+constexpr double kInflowSpeedup = 1.5;
+constexpr double kInflowSpeedupFloor = 0.1;  // [m/s]
+// Below this inflow depth the step takes nothing: a film of 0.1 mm (1/50 of the 5 mm cells of
+// the paper's grids) would need u = mass / (dt h) far above the cap to carry the mass. What is
+// not taken is carried to the next steps (pending mass), so no mass is lost.
+constexpr double kInflowMinDepth = 1e-4;  // [m]
+// A first interior column whose mean velocity is below this has no profile shape to copy
+// (eq. 25): it is at rest or empty, and the opening takes the uniform profile.
+constexpr double kShapeMinMean = 1e-12;  // [m/s]
+}  // namespace
+
+// The gate state of a step (lagged at t^n): {h_in, u_in} from the provider; with an exact mass
+// (a 1D-to-2D interface) the velocity that lets in what the upstream side let out; then the
+// boundary faces with it.
+void NdamSolver::gate_state(double dt) {
+  inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
+  inflow_owed_new_ = inflow_owed_;
+  if (inflow_mass_) {
+    if (const auto m = inflow_mass_(t_, dt)) {
+      // Exact transfer: the step lets in what the upstream side let out (plus what earlier
+      // steps could not take), at a velocity capped by kInflowSpeedup and from a depth of at
+      // least kInflowMinDepth; the rest waits for the next steps.
+      const double target = *m + inflow_owed_, h = inflow_now_[0];
+      const double ucap = kInflowSpeedup * std::abs(inflow_now_[1]) + kInflowSpeedupFloor;
+      double u = 0.0;
+      if (h > kInflowMinDepth && target > 0.0) u = std::min(target / (dt * h), ucap);
+      inflow_now_[1] = u;
+      inflow_owed_new_ = target - u * dt * h;
+    }
+  }
+  fill_velocity_ghosts(u_, w_);
+}
+
+// Inflow velocity of row k of the gate opening 0 <= z < h_in: the material velocity of the row
+// (u_in(z) on its open part), like every face of a partly filled Surface cell inside the box; the
+// mass that enters is the markers' (accept(): each row's open part times its face value, so the
+// total is h_in u_mean). Uniform: u_in(z) = u_in. CopyInterior (eq. 25): the shape of the first
+// interior column u(0,k), scaled so that its mean over the opening [0, h_in] is u_in.
+// A row only partly below h_in is the top material row: it carries the full material velocity
+// like the interior faces of that row (not u_in times its open part, which slows the top row and,
+// copied back through the profile shape, turns the profile over; docs/numerics.md).
+double NdamSolver::inflow_face(int k) const {
+  const double h = inflow_now_[0], um = inflow_now_[1], dz = cfg_.grid.dz();
+  if (!(h > 0.0)) return 0.0;
+  const double open = std::clamp((h - k * dz) / dz, 0.0, 1.0);
+  if (open <= 0.0) return 0.0;
+  if (cfg_.inflow_shape == InflowShape::Uniform || mac_.slab.i0 != 0) return um;
+  // shape from column 0 (this rank owns it): mean of the shape over the opening
+  double q = 0.0;
+  for (int kk = 0; kk < cfg_.grid.nz; ++kk) {
+    const double o = std::clamp((h - kk * dz) / dz, 0.0, 1.0);
+    if (o <= 0.0) break;
+    q += o * dz * u_(0, kk);
+  }
+  const double mean = q / h;
+  if (!(std::abs(mean) > kShapeMinMean)) return um;  // no shape yet: uniform
+  return um * u_(0, k) / mean;
+}
+
+// Lagged gradient continued through an open outflow (NdamConfig::outflow_extrapolate): the
+// difference of the last two interior faces of row k in the current state u_, where both are
+// material faces; 0 otherwise (zero gradient) and on ranks that do not own the end.
+double NdamSolver::outflow_slope(int k) const {
+  const int nx = cfg_.grid.nx, i = nx - 2 - mac_.slab.i0;
+  if (!cfg_.outflow_extrapolate || mac_.slab.i0 + mac_.slab.nx_local != nx || i - 1 < -Field::G) return 0.0;
+  if (!mac_.u_unknown(i, k) || !mac_.u_unknown(i - 1, k)) return 0.0;
+  return u_(i, k) - u_(i - 1, k);
+}
+
+// eq. (26): p = g cos(zeta) (h - z) (1 + K) / 2 with h the inflow depth, at the row's centre
+double NdamSolver::inflow_p26(int k) const {
+  const double z = (k + 0.5) * cfg_.grid.dz();
+  return std::abs(phys_.gz) * std::max(0.0, inflow_now_[0] - z) * (1.0 + cfg_.inflow_K) / 2.0;
+}
+
+void NdamSolver::set_inflow(std::function<std::array<double, 2>(double t)> provider,
+                            InflowShape shape, InflowPressure pressure, double K,
+                            InflowMass mass) {
+  if (!cfg_.free_surface || cfg_.periodic_x())
+    throw params::InputError("N-DAM: an inflow needs 'Free surface' = true and a non-periodic box");
+  cfg_.inflow = std::move(provider);
+  cfg_.inflow_shape = shape;
+  cfg_.inflow_pressure = pressure;
+  cfg_.inflow_K = K;
+  inflow_mass_ = std::move(mass);  // the carried mass inflow_owed_ is state: it stays
+  inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
+  mac_.dirichlet_inflow_column = pressure == InflowPressure::Dirichlet;
+  flags_changed_ = true;  // the Dirichlet cells of eq. (26) may have changed
+  fill_velocity_ghosts(u_, w_);
+  update_profile_cache();  // u_mean of the inflow column reads the new inflow face
+}
+
+// Markers of the gate: the open part of each row enters with the material velocity of its
+// face in the new state, u(-1, k) (the owner of column 0 injects).
+void NdamSolver::inject_markers(double dt, MarkerSet& markers) const {
+  if (!cfg_.inflow || mac_.slab.i0 != 0 || !(inflow_now_[0] > 0.0)) return;
+  std::vector<double> uf(static_cast<std::size_t>(cfg_.grid.nz), 0.0);
+  const double dz = cfg_.grid.dz();
+  for (int k = 0; k < cfg_.grid.nz; ++k) {
+    const double open = std::clamp((inflow_now_[0] - k * dz) / dz, 0.0, 1.0);
+    if (open > 0.0) uf[static_cast<std::size_t>(k)] = u_new_(-1, k);  // material velocity of the open part
+  }
+  markers.inject(dt, inflow_now_[0], uf);
+}
+
+double NdamSolver::inflow_pending() const {
+  if (!markers_) return 0.0;
+  double acc = 0.0;
+  if (mac_.slab.i0 == 0)
+    for (double a : markers_->inflow_accumulators()) acc += a;
+  double all = 0.0;
+  MPI_Allreduce(&acc, &all, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  return inflow_owed_ + all * markers_->marker_area();
+}
+
+}  // namespace granflow::ndam

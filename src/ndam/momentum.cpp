@@ -1,0 +1,230 @@
+// N-DAM momentum predictor (paper eqs. 8-9, NaSt2D's discretisation):
+//
+//   u* = u^n + dt [ -C(u^n) + g - G p^n + V(u) ],       V = div(2 nu_eff D(u))
+//   explicit (the paper's):  V(u^n);   implicit:  (I/dt - V) u* = u^n/dt - C + g - G p^n,
+//   V with nu_eff(t^n), solved with Belos (solvers/linear_system).
+//
+// C is NaSt2D's convective term in conservative form, blended between central differences and
+// donor-cell upwinding by gamma. V is the divergence of the discrete stress: normal stresses
+// 2 nu_eff du/dx, 2 nu_eff dw/dz at cell centres, shear stress nu_eff (du/dz + dw/dx) at cell
+// corners with nu_eff averaged from the four cells around the corner (zero at a corner on the
+// free surface). Written this way V is the (negative) adjoint of the discrete strain rate
+// weighted by nu_eff, so I/dt - V is symmetric positive definite on a closed box, and, unlike
+// nu_eff Laplace(u), it is the right operator when nu_eff varies. Boundary values enter through
+// the Refs of boundaries.cpp and free_surface.cpp.
+#include "stencil.hpp"
+
+#include <cmath>
+
+namespace granflow::ndam {
+
+double NdamSolver::nu_corner(int i, int k) const {
+  if (cfg_.free_surface) {
+    // A corner that touches an Empty cell lies on the free surface: its shear stress is zero
+    // (the tangential-stress condition). Averaging nu_eff there instead would couple the
+    // material to the extrapolated (lagged) velocities of the empty region with the full,
+    // possibly huge, viscoplastic nu_eff: a spurious lid that holds back the layer.
+    const int gi = mac_.slab.i0 + i;
+    for (int di = 0; di <= 1; ++di)
+      for (int dk = 0; dk <= 1; ++dk)
+        if (mac_.gflag(gi + di, k + dk) == CellFlag::Empty) return 0.0;
+  }
+  return 0.25 * (nu_(i, k) + nu_(i + 1, k) + nu_(i, k + 1) + nu_(i + 1, k + 1));
+}
+
+// V = div(2 nu_eff D) at the u face (i, k): d/dx of the normal stress in the cells left and
+// right of the face, d/dz of the shear stress at the corners above and below.
+template <class Emit>
+void NdamSolver::viscous_u(int i, int k, Emit&& e) const {
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  for (int c : {i + 1, i}) {
+    const double s = (c == i + 1 ? 1.0 : -1.0) / dx;
+    const double f = 2.0 * nu_(c, k) / dx;  // tau_xx = 2 nu (u(c) - u(c-1)) / dx
+    e(U, c, k, s * f);
+    e(U, c - 1, k, -s * f);
+  }
+  for (int kc : {k, k - 1}) {
+    const double s = (kc == k ? 1.0 : -1.0) / dz;
+    const double n = nu_corner(i, kc);  // tau_xz = nu (du/dz + dw/dx) at corner (i, kc)
+    e(U, i, kc + 1, s * n / dz);
+    e(U, i, kc, -s * n / dz);
+    e(W, i + 1, kc, s * n / dx);
+    e(W, i, kc, -s * n / dx);
+  }
+}
+
+// V at the w face (i, k): d/dx of the shear stress at the corners left and right, d/dz of the
+// normal stress in the cells below and above.
+template <class Emit>
+void NdamSolver::viscous_w(int i, int k, Emit&& e) const {
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  for (int ic : {i, i - 1}) {
+    const double s = (ic == i ? 1.0 : -1.0) / dx;
+    const double n = nu_corner(ic, k);
+    e(U, ic, k + 1, s * n / dz);
+    e(U, ic, k, -s * n / dz);
+    e(W, ic + 1, k, s * n / dx);
+    e(W, ic, k, -s * n / dx);
+  }
+  for (int c : {k + 1, k}) {
+    const double s = (c == k + 1 ? 1.0 : -1.0) / dz;
+    const double f = 2.0 * nu_(i, c) / dz;  // tau_zz = 2 nu (w(c) - w(c-1)) / dz
+    e(W, i, c, s * f);
+    e(W, i, c - 1, -s * f);
+  }
+}
+
+// Convective terms of NaSt2D (Griebel et al.): d(u^2)/dx + d(uw)/dz at u faces and
+// d(uw)/dx + d(w^2)/dz at w faces, central part plus gamma times the donor-cell correction.
+double NdamSolver::conv_u(int i, int k) const {
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz(), g = cfg_.gamma;
+  const Field& u = u_;
+  const Field& w = w_;
+  const double ur = 0.5 * (u(i, k) + u(i + 1, k)), ul = 0.5 * (u(i - 1, k) + u(i, k));
+  const double du2 = (ur * ur - ul * ul) / dx +
+                     g / dx *
+                         (std::abs(ur) * 0.5 * (u(i, k) - u(i + 1, k)) -
+                          std::abs(ul) * 0.5 * (u(i - 1, k) - u(i, k)));
+  const double wt = 0.5 * (w(i, k) + w(i + 1, k)), wb = 0.5 * (w(i, k - 1) + w(i + 1, k - 1));
+  const double duw = (wt * 0.5 * (u(i, k) + u(i, k + 1)) - wb * 0.5 * (u(i, k - 1) + u(i, k))) /
+                         dz +
+                     g / dz *
+                         (std::abs(wt) * 0.5 * (u(i, k) - u(i, k + 1)) -
+                          std::abs(wb) * 0.5 * (u(i, k - 1) - u(i, k)));
+  return du2 + duw;
+}
+
+double NdamSolver::conv_w(int i, int k) const {
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz(), g = cfg_.gamma;
+  const Field& u = u_;
+  const Field& w = w_;
+  const double ur = 0.5 * (u(i, k) + u(i, k + 1)), ul = 0.5 * (u(i - 1, k) + u(i - 1, k + 1));
+  const double duw = (ur * 0.5 * (w(i, k) + w(i + 1, k)) - ul * 0.5 * (w(i - 1, k) + w(i, k))) /
+                         dx +
+                     g / dx *
+                         (std::abs(ur) * 0.5 * (w(i, k) - w(i + 1, k)) -
+                          std::abs(ul) * 0.5 * (w(i - 1, k) - w(i, k)));
+  const double wt = 0.5 * (w(i, k) + w(i, k + 1)), wb = 0.5 * (w(i, k - 1) + w(i, k));
+  const double dw2 = (wt * wt - wb * wb) / dz +
+                     g / dz *
+                         (std::abs(wt) * 0.5 * (w(i, k) - w(i, k + 1)) -
+                          std::abs(wb) * 0.5 * (w(i, k - 1) - w(i, k)));
+  return duw + dw2;
+}
+
+// The explicit force of eq. (8) on the unknown faces, F = -C(u^n) + g [- G p^n] + V(u^n), with
+// the viscous stress V = div(2 nu_eff D) at t^n through the same Refs the implicit operator
+// assembles. With the pressure gradient it is the paper's explicit predictor; without it, the
+// right-hand side of the initial pressure equation (10) (projection.cpp). Other faces: 0.
+void NdamSolver::explicit_force(bool pressure_gradient, Field& fu, Field& fw) const {
+  const int nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  double vis = 0.0;
+  auto eval = [&](Comp c, int i, int k, double coeff) {
+    vis += coeff * detail::value(ref(c, i, k), c == U ? u_ : w_);
+  };
+  fu.fill(0.0);
+  fw.fill(0.0);
+  for (int i = 0; i < nxl; ++i) {
+    for (int k = 0; k < nz; ++k)
+      if (mac_.u_unknown(i, k)) {
+        vis = 0.0;
+        viscous_u(i, k, eval);
+        double f = -conv_u(i, k) + phys_.gx;
+        if (pressure_gradient) f = f - (p_(i + 1, k) - p_(i, k)) / dx;
+        fu(i, k) = f + vis;
+      }
+    for (int k = 0; k < nz - 1; ++k) {
+      if (!mac_.w_unknown(i, k)) continue;
+      vis = 0.0;
+      viscous_w(i, k, eval);
+      double f = -conv_w(i, k) + phys_.gz;
+      if (pressure_gradient) f = f - (p_(i, k + 1) - p_(i, k)) / dz;
+      fw(i, k) = f + vis;
+    }
+  }
+}
+
+// u* on every unknown face; wall-normal faces keep their boundary value 0.
+void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
+  const int nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  us = u_;
+  ws = w_;
+  if (cfg_.momentum == Momentum::Explicit) {
+    // the paper's scheme: u* = u^n + dt F(u^n, p^n)
+    Field fu(nxl, nz), fw(nxl, nz);
+    explicit_force(true, fu, fw);
+    for (int i = 0; i < nxl; ++i) {
+      for (int k = 0; k < nz; ++k)
+        if (mac_.u_unknown(i, k)) us(i, k) = u_(i, k) + dt * fu(i, k);
+      for (int k = 0; k < nz - 1; ++k)
+        if (mac_.w_unknown(i, k)) ws(i, k) = w_(i, k) + dt * fw(i, k);
+    }
+    fill_velocity_ghosts(us, ws);
+    return;
+  }
+  // Explicit forces of the implicit step: convection, gravity, the pressure gradient of t^n.
+  auto force_u = [&](int i, int k) {
+    return -conv_u(i, k) + phys_.gx - (p_(i + 1, k) - p_(i, k)) / dx;
+  };
+  auto force_w = [&](int i, int k) {
+    return -conv_w(i, k) + phys_.gz - (p_(i, k + 1) - p_(i, k)) / dz;
+  };
+
+  // Implicit: (I/dt - V) u* = u^n/dt + forces. The matrix depends on nu_eff and dt only; with
+  // a constant viscosity and an unchanged dt the assembled matrix and its preconditioner are
+  // reused. The boundary constants of V go to the right-hand side in every step.
+  const bool rebuild = !rheo_.newtonian() || dt != momentum_dt_ || cfg_.free_surface ||
+                       cfg_.walls[1].kind == WallKind::Coulomb ||
+                       cfg_.walls[2].kind == WallKind::Coulomb;
+  const long long first = 2 * mac_.p_gid(mac_.slab.i0, 0);
+  std::vector<double> rhs(static_cast<std::size_t>(2 * nxl * nz)), x(rhs.size());
+  if (rebuild) momentum_->begin();
+  for (int i = 0; i < nxl; ++i)
+    for (int k = 0; k < nz; ++k)
+      for (Comp c : {U, W}) {
+        const long long row = 2 * mac_.p_gid(mac_.slab.i0 + i, k) + c;
+        const auto lr = static_cast<std::size_t>(row - first);
+        const bool unknown = c == U ? mac_.u_unknown(i, k) : mac_.w_unknown(i, k);
+        if (!unknown) {  // wall-normal face: identity row, value 0
+          if (rebuild) momentum_->add(row, row, 1.0);
+          rhs[lr] = 0.0;
+          x[lr] = 0.0;
+          continue;
+        }
+        double b = c == U ? u_(i, k) / dt + force_u(i, k) : w_(i, k) / dt + force_w(i, k);
+        if (rebuild) momentum_->add(row, row, 1.0 / dt);
+        auto emit = [&](Comp cc, int ii, int kk, double coeff) {
+          const Ref r = ref(cc, ii, kk);
+          if (r.gid < 0) {  // a known value (boundary or free-surface face)
+            b += coeff * detail::value(r, cc == U ? u_ : w_);
+            return;
+          }
+          b += coeff * r.b;
+          if (r.a != 0.0 && rebuild) momentum_->add(row, r.gid, -coeff * r.a);
+        };
+        if (c == U) viscous_u(i, k, emit);
+        else viscous_w(i, k, emit);
+        rhs[lr] = b;
+        x[lr] = c == U ? u_(i, k) : w_(i, k);  // initial guess: u^n
+      }
+  if (rebuild) {
+    momentum_->end();
+    momentum_dt_ = dt;
+  }
+  mom_stats_ = momentum_->solve(rhs, x);
+  ++stats_.momentum_solves;
+  stats_.momentum_iterations += mom_stats_.iterations;
+  stats_.worst_momentum_residual = std::max(stats_.worst_momentum_residual, mom_stats_.residual);
+  if (!mom_stats_.converged) ++stats_.unconverged_solves;
+  for (int i = 0; i < nxl; ++i)
+    for (int k = 0; k < nz; ++k) {
+      const auto lr = static_cast<std::size_t>(2 * mac_.p_gid(mac_.slab.i0 + i, k) - first);
+      if (mac_.u_unknown(i, k)) us(i, k) = x[lr];
+      if (mac_.w_unknown(i, k)) ws(i, k) = x[lr + 1];
+    }
+  fill_velocity_ghosts(us, ws);
+}
+
+}  // namespace granflow::ndam

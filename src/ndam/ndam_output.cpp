@@ -1,0 +1,338 @@
+// N-DAM output contract: the depth-averaged profile (h and u_mean of eq. 21, eps of section
+// 4.1), the mass balance of the marker area, the HDF5 field snapshot, the checkpoint (save and
+// load) and the statistics of summary.json.
+#include "stencil.hpp"
+
+#include "granflow/io/fields.hpp"
+#include "granflow/params/parameters.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace granflow::ndam {
+
+std::vector<double> NdamSolver::gather_u() const { return mac_.gather_cells(u_, false); }
+std::vector<double> NdamSolver::gather_w() const { return mac_.gather_cells(w_, false); }
+std::vector<double> NdamSolver::gather_p() const { return mac_.gather_cells(p_, false); }
+std::vector<double> NdamSolver::gather_nu() const { return mac_.gather_cells(nu_, false); }
+
+core::Profile NdamSolver::profile() const {
+  if (cfg_.free_surface) {
+    // h and u_mean of eq. (21) from the markers (MarkerSet::profile: count-based depth), eps =
+    // |w_mean| / |u_mean| (section 4.1); gathered at every accept().
+    core::Profile p;
+    for (int gi = 0; gi < cfg_.grid.nx; ++gi) {
+      const auto q = static_cast<std::size_t>(gi);
+      const double um = col_u_[q], wm = col_w_[q];
+      const double eps = um != 0.0 ? std::min(core::kEpsCap, std::abs(wm) / std::abs(um)) : 0.0;
+      p.append(cfg_.x0 + (gi + 0.5) * cfg_.grid.dx(), col_h_[q], um, eps, "2D");
+    }
+    return p;
+  }
+  // Depth averages of the cell-centred velocities over the fluid cells of each column; h is
+  // the fluid height of the column (Lz in a box without obstacles); eps = |w_mean| / |u_mean|
+  // (paper section 4.1).
+  const int nz = cfg_.grid.nz;
+  std::vector<double> local;
+  for (int i = 0; i < mac_.slab.nx_local; ++i) {
+    double um = 0.0, wm = 0.0;
+    int n = 0;
+    for (int k = 0; k < nz; ++k) {
+      if (!mac_.fluid(mac_.slab.i0 + i, k)) continue;
+      um += 0.5 * (u_(i, k) + u_(i - 1, k));
+      wm += 0.5 * (w_(i, k) + w_(i, k - 1));
+      ++n;
+    }
+    local.push_back(n > 0 ? um / n : 0.0);
+    local.push_back(n > 0 ? wm / n : 0.0);
+    local.push_back(n * cfg_.grid.dz());
+  }
+  const auto all = mac_.gather_columns(local);
+  core::Profile p;
+  for (int gi = 0; gi < cfg_.grid.nx; ++gi) {
+    const double um = all[static_cast<std::size_t>(3 * gi)];
+    const double wm = all[static_cast<std::size_t>(3 * gi + 1)];
+    const double eps = um != 0.0 ? std::min(core::kEpsCap, std::abs(wm) / std::abs(um)) : 0.0;
+    p.append((gi + 0.5) * cfg_.grid.dx(), all[static_cast<std::size_t>(3 * gi + 2)], um, eps,
+             "2D");
+  }
+  return p;
+}
+
+core::MassBalance NdamSolver::mass_balance() const {
+  // Incompressible and closed (or periodic): the mass per unit width is the fluid area, which
+  // cannot change; the discrete divergence (reported separately) measures how well the velocity
+  // field respects it.
+  core::MassBalance m;
+  if (cfg_.free_surface) {
+    // the marker area (m^2 per unit width): initial, now, injected at the gate, removed at the
+    // outflow; the defect is the marker count's, i.e. exactly 0 unless markers are lost.
+    m.initial = mass0_;
+    m.current = marker_mass_.area;
+    m.inflow = marker_mass_.injected_area;
+    m.outflow = marker_mass_.removed_area;
+    return m;
+  }
+  m.initial = m.current = static_cast<double>(fluid_cells_) * cfg_.grid.dx() * cfg_.grid.dz();
+  return m;
+}
+
+void NdamSolver::write_fields(io::FieldWriter& wr) const {
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
+  std::vector<double> xn(static_cast<std::size_t>(nx + 1)), zn(static_cast<std::size_t>(nz + 1));
+  for (int i = 0; i <= nx; ++i) xn[static_cast<std::size_t>(i)] = cfg_.x0 + i * cfg_.grid.dx();
+  for (int k = 0; k <= nz; ++k) zn[static_cast<std::size_t>(k)] = k * cfg_.grid.dz();
+  Field uc(mac_.slab.nx_local, nz), wc(mac_.slab.nx_local, nz), dv(mac_.slab.nx_local, nz),
+      fl(mac_.slab.nx_local, nz), pk(mac_.slab.nx_local, nz);
+  for (int i = 0; i < mac_.slab.nx_local; ++i)
+    for (int k = 0; k < nz; ++k) {
+      const bool f = mac_.fluid(mac_.slab.i0 + i, k);
+      uc(i, k) = f ? 0.5 * (u_(i, k) + u_(i - 1, k)) : 0.0;
+      wc(i, k) = f ? 0.5 * (w_(i, k) + w_(i, k - 1)) : 0.0;
+      dv(i, k) = f ? divergence(u_, w_, i, k) : 0.0;
+      fl(i, k) = static_cast<double>(flag(mac_.slab.i0 + i, k));
+      pk(i, k) = p_(i, k) * phys_.density;
+    }
+  auto& m = wr.add_mesh("ndam", std::move(xn), std::move(zn));
+  m.cell_fields.emplace_back("u", mac_.gather_cells(uc, true));
+  m.cell_fields.emplace_back("w", mac_.gather_cells(wc, true));
+  m.cell_fields.emplace_back("p", mac_.gather_cells(p_, true));
+  m.cell_fields.emplace_back("p_Pa", mac_.gather_cells(pk, true));
+  m.cell_fields.emplace_back("nu_eff", mac_.gather_cells(nu_, true));
+  m.cell_fields.emplace_back("div_u", mac_.gather_cells(dv, true));
+  m.cell_fields.emplace_back("flag", mac_.gather_cells(fl, true));
+}
+
+NdamState NdamSolver::export_state() const {
+  NdamState s;
+  s.t = t_;
+  s.steps = steps_;
+  s.nx = cfg_.grid.nx;
+  s.nz = cfg_.grid.nz;
+  s.u = gather_u();
+  s.w = gather_w();
+  s.p = gather_p();
+  if (markers_) {
+    // all markers (gathered, sorted by id), the gate's accumulators (rank 0 owns column 0), the
+    // id counters (maxima over the ranks) and the global counters
+    s.markers = markers_->gather();
+    s.inflow_accumulators = markers_->inflow_accumulators();
+    int n = static_cast<int>(s.inflow_accumulators.size());
+    MPI_Bcast(&n, 1, MPI_INT, 0, comm_);
+    s.inflow_accumulators.resize(static_cast<std::size_t>(n));
+    MPI_Bcast(s.inflow_accumulators.data(), n, MPI_DOUBLE, 0, comm_);
+    const MarkerState st = markers_->save();
+    long long loc[2] = {st.inject_next, st.seed_base}, mx[2] = {0, 0};
+    MPI_Allreduce(loc, mx, 2, MPI_LONG_LONG, MPI_MAX, comm_);
+    s.inject_next = mx[0];
+    s.seed_base = mx[1];
+    s.injected = marker_mass_.injected;
+    s.removed = marker_mass_.removed;
+    s.mass0 = mass0_;
+    s.inflow_owed = inflow_owed_;
+  }
+  return s;
+}
+
+// The state of `s` on this box: fields, markers (this rank takes those of its columns; the
+// gate's accumulators and the global counters go to rank 0, since MarkerSet::mass() sums the
+// ranks' counters), flags from the markers, and everything derived from them.
+void NdamSolver::import_state(const NdamState& s) {
+  if (s.nx != cfg_.grid.nx || s.nz != cfg_.grid.nz) {
+    std::ostringstream os;
+    os << "N-DAM state grid (" << s.nx << " x " << s.nz << " cells) does not match the box ("
+       << cfg_.grid.nx << " x " << cfg_.grid.nz << ")";
+    throw params::InputError(os.str());
+  }
+  t_ = s.t;
+  steps_ = s.steps;
+  mac_.scatter_cells(s.u, u_);
+  mac_.scatter_cells(s.w, w_);
+  mac_.scatter_cells(s.p, p_);
+  if (markers_) {
+    MarkerState st;
+    const double dx = cfg_.grid.dx();
+    for (const Marker& m : s.markers) {
+      const int gi = std::clamp(static_cast<int>(std::floor(m.x / dx)), 0, cfg_.grid.nx - 1);
+      if (gi >= mac_.slab.i0 && gi < mac_.slab.i0 + mac_.slab.nx_local) st.markers.push_back(m);
+    }
+    st.inflow_accumulators = s.inflow_accumulators;
+    st.inject_next = s.inject_next;
+    st.seed_base = s.seed_base;
+    st.injected = mac_.slab.rank == 0 ? s.injected : 0;
+    st.removed = mac_.slab.rank == 0 ? s.removed : 0;
+    markers_->load(st);
+    mass0_ = s.mass0;
+    inflow_owed_ = inflow_owed_new_ = s.inflow_owed;
+    marker_mass_ = markers_->mass();
+    const auto old_flags = mac_.flags;
+    update_flags(*markers_, mac_.flags, mac_.empty_mask);
+    if (mac_.flags != old_flags) flags_changed_ = true;
+    if (cfg_.inflow) inflow_now_ = cfg_.inflow(t_);
+  }
+  fluid_cells_ = 0;
+  for (int gi = 0; gi < cfg_.grid.nx; ++gi)
+    for (int k = 0; k < cfg_.grid.nz; ++k)
+      if (mac_.p_unknown(gi, k)) ++fluid_cells_;
+  fill_velocity_ghosts(u_, w_);
+  fill_scalar_ghosts(p_);
+  update_viscosity(p_);
+  if (markers_) update_profile_cache();
+  u_new_ = u_;
+  w_new_ = w_;
+  p_new_ = p_;
+}
+
+void NdamSolver::save(io::Checkpoint& c) const {
+  const NdamState s = export_state();
+  c.set("ndam/t", s.t);
+  c.set("ndam/steps", static_cast<double>(s.steps));
+  c.set("ndam/nx", static_cast<double>(s.nx));
+  c.set("ndam/nz", static_cast<double>(s.nz));
+  c.set("ndam/u", s.u);
+  c.set("ndam/w", s.w);
+  c.set("ndam/p", s.p);
+  if (markers_) {
+    // an id is stored as two doubles, its high and low 31 bits, since injected ids start at
+    // 2^62, beyond a double's 53 bits
+    std::vector<double> xs, zs, ids;
+    for (const auto& m : s.markers) {
+      xs.push_back(m.x);
+      zs.push_back(m.z);
+      ids.push_back(static_cast<double>(m.id >> 31));
+      ids.push_back(static_cast<double>(m.id & ((1LL << 31) - 1)));
+    }
+    c.set("ndam/markers_x", xs);
+    c.set("ndam/markers_z", zs);
+    c.set("ndam/markers_id", ids);
+    c.set("ndam/markers_accumulators", s.inflow_accumulators);
+    c.set("ndam/markers_inject_next", static_cast<double>(s.inject_next));
+    c.set("ndam/markers_seed_base", static_cast<double>(s.seed_base));
+    c.set("ndam/markers_injected", static_cast<double>(s.injected));
+    c.set("ndam/markers_removed", static_cast<double>(s.removed));
+    c.set("ndam/mass0", s.mass0);
+    c.set("ndam/inflow_owed", s.inflow_owed);
+  }
+}
+
+void NdamSolver::load(const io::Checkpoint& c) {
+  if (static_cast<int>(c.scalar("ndam/nx")) != cfg_.grid.nx ||
+      static_cast<int>(c.scalar("ndam/nz")) != cfg_.grid.nz) {
+    std::ostringstream os;
+    os << "checkpoint grid (" << c.scalar("ndam/nx") << " x " << c.scalar("ndam/nz")
+       << " cells) does not match the scene (" << cfg_.grid.nx << " x " << cfg_.grid.nz << ")";
+    throw params::InputError(os.str());
+  }
+  NdamState s;
+  s.t = c.scalar("ndam/t");
+  s.steps = static_cast<long>(c.scalar("ndam/steps"));
+  s.nx = cfg_.grid.nx;
+  s.nz = cfg_.grid.nz;
+  s.u = c.array("ndam/u");
+  s.w = c.array("ndam/w");
+  s.p = c.array("ndam/p");
+  if (markers_) {
+    const auto& xs = c.array("ndam/markers_x");
+    const auto& zs = c.array("ndam/markers_z");
+    const auto& ids = c.array("ndam/markers_id");
+    for (std::size_t q = 0; q < xs.size(); ++q)
+      s.markers.push_back(Marker{xs[q], zs[q],
+                                 (static_cast<long long>(ids[2 * q]) << 31) +
+                                     static_cast<long long>(ids[2 * q + 1])});
+    s.inflow_accumulators = c.array("ndam/markers_accumulators");
+    s.inject_next = static_cast<long long>(c.scalar("ndam/markers_inject_next"));
+    s.seed_base = static_cast<long long>(c.scalar("ndam/markers_seed_base"));
+    s.injected = static_cast<long long>(c.scalar("ndam/markers_injected"));
+    s.removed = static_cast<long long>(c.scalar("ndam/markers_removed"));
+    s.mass0 = c.scalar("ndam/mass0");
+    if (c.scalars().count("ndam/inflow_owed")) s.inflow_owed = c.scalar("ndam/inflow_owed");
+  }
+  import_state(s);
+}
+
+NdamStatistics NdamSolver::statistics() const {
+  NdamStatistics s = stats_;
+  s.retired_pressure_setups += pressure_->preconditioner_setups();
+  s.retired_pressure_setup_seconds += pressure_->preconditioner_setup_seconds();
+  s.retired_pressure_patterns += pressure_->pattern_builds();
+  if (momentum_) {
+    s.retired_momentum_setups += momentum_->preconditioner_setups();
+    s.retired_momentum_setup_seconds += momentum_->preconditioner_setup_seconds();
+    s.retired_momentum_patterns += momentum_->pattern_builds();
+  }
+  return s;
+}
+
+void NdamSolver::report(nlohmann::json& s) const {
+  auto avg = [](long long its, long long n) { return n > 0 ? double(its) / double(n) : 0.0; };
+  s["ndam"] = {
+      {"cells_x", cfg_.grid.nx},
+      {"cells_z", cfg_.grid.nz},
+      {"dx", cfg_.grid.dx()},
+      {"dz", cfg_.grid.dz()},
+      {"ranks", mac_.slab.ranks},
+      {"momentum", cfg_.momentum == Momentum::Explicit ? "Explicit" : "Implicit"},
+      {"rheology", rheo_.name()},
+      {"steps", steps_},
+      {"dt_min", stats_.dt_min},
+      {"dt_max", stats_.dt_max},
+      {"max_divergence", stats_.max_divergence},
+      {"max_nu_eff", max_nu_eff()},
+      {"pressure_solves", stats_.pressure_solves},
+      {"pressure_krylov_iterations", stats_.pressure_iterations},
+      {"pressure_krylov_iterations_per_solve", avg(stats_.pressure_iterations, stats_.pressure_solves)},
+      {"pressure_worst_relative_residual", stats_.worst_pressure_residual},
+      {"momentum_solves", stats_.momentum_solves},
+      {"momentum_krylov_iterations", stats_.momentum_iterations},
+      {"momentum_krylov_iterations_per_solve", avg(stats_.momentum_iterations, stats_.momentum_solves)},
+      {"momentum_worst_relative_residual", stats_.worst_momentum_residual},
+      {"unconverged_solves", stats_.unconverged_solves},
+      {"pressure_preconditioner_setups",
+       pressure_->preconditioner_setups() + stats_.retired_pressure_setups},
+      {"pressure_preconditioner_setup_seconds",
+       pressure_->preconditioner_setup_seconds() + stats_.retired_pressure_setup_seconds},
+      {"pressure_pattern_builds", pressure_->pattern_builds() + stats_.retired_pressure_patterns},
+      {"momentum_pattern_builds",
+       (momentum_ ? momentum_->pattern_builds() : 0LL) + stats_.retired_momentum_patterns},
+      {"momentum_preconditioner_setups",
+       (momentum_ ? momentum_->preconditioner_setups() : 0LL) + stats_.retired_momentum_setups},
+      {"momentum_preconditioner_setup_seconds",
+       (momentum_ ? momentum_->preconditioner_setup_seconds() : 0.0) +
+           stats_.retired_momentum_setup_seconds},
+      {"free_surface", cfg_.free_surface}};
+  if (cfg_.free_surface) {
+    s["ndam"]["markers"] = marker_mass_.count;
+    s["ndam"]["marker_area"] = marker_mass_.area;
+    s["ndam"]["seconds_markers_last_step"] = stats_.step_markers;
+    if (inflow_mass_) s["ndam"]["inflow_pending_area"] = inflow_pending();
+  }
+  // The nonlinear pressure system (Pressure coupling = Nonlinear): Newton and Krylov (GMRES)
+  // iterations per step, residual evaluations (each one predictor-projection).
+  s["ndam"]["pressure_coupling"] =
+      cfg_.pressure_coupling == PressureCoupling::Nonlinear ? "Nonlinear" : "Lagged";
+  if (stats_.newton_solves > 0)
+    s["ndam"]["newton"] = {{"solves", stats_.newton_solves},
+                           {"newton_iterations", stats_.newton_iterations},
+                           {"newton_iterations_per_step", avg(stats_.newton_iterations, stats_.newton_solves)},
+                           {"newton_iterations_max", stats_.newton_max_iterations},
+                           {"krylov_iterations", stats_.newton_krylov},
+                           {"krylov_iterations_per_step", avg(stats_.newton_krylov, stats_.newton_solves)},
+                           {"residual_evaluations", stats_.newton_evaluations},
+                           {"residual_evaluations_per_step", avg(stats_.newton_evaluations, stats_.newton_solves)},
+                           {"worst_final_residual", stats_.newton_worst_residual},
+                           {"unconverged_steps_continued", stats_.newton_continued},
+                           {"worst_residual_continued", stats_.newton_continued_worst},
+                           {"seconds", stats_.newton_seconds}};
+  // Wall time per phase over the accepted steps (this rank): momentum predictor, pressure
+  // solve, markers (advection, injection, flags), and the rest of the step (viscosity,
+  // correction, ghost exchange).
+  s["ndam"]["seconds"] = {{"momentum", stats_.total_momentum},
+                          {"pressure", stats_.total_pressure},
+                          {"markers", stats_.total_markers},
+                          {"other", stats_.total_other}};
+}
+
+}  // namespace granflow::ndam

@@ -1,0 +1,247 @@
+// N-DAM pressure projection (paper eqs. 10 and 14, NaSt2D's incremental form):
+//
+//   -L phi = -D u* / dt           on the pressure unknowns (Fluid cells), L = D G with the wall
+//                                 faces fixed: n.grad phi = 0 at walls (the Neumann condition
+//                                 (14) for the increment); Surface/Empty cells are Dirichlet
+//                                 cells with the free-surface value (free_surface.cpp)
+//   u^{n+1} = u* - dt G phi
+//   p^{n+1} = p^n + phi - chi nu_eff D u*   (chi = 2 implicit: the rotational pressure update;
+//                                            chi = 0 for the paper's explicit scheme)
+// The pressure at t = 0 solves eq. (10) itself, -L p = -div F with the Neumann condition (14)
+// n.grad p = n.F, so that a fluid at rest starts in hydrostatic balance.
+#include "stencil.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace granflow::ndam {
+
+using detail::Clock;
+
+void NdamSolver::assemble_pressure() {
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz, nxl = mac_.slab.nx_local;
+  const bool per = cfg_.periodic_x();
+  // A closed region of Fluid cells without Dirichlet neighbours (no free surface) has the
+  // singular pure-Neumann Laplacian: pin phi = 0 in its first cell. With a free surface the
+  // Surface and Empty cells are Dirichlet cells and no pin is needed.
+  pin_ = -1;
+  bool dirichlet = false;
+  for (int gi = 0; gi < nx && !dirichlet; ++gi)
+    for (int k = 0; k < nz; ++k) {
+      const CellFlag f = mac_.flags[static_cast<std::size_t>(gi * nz + k)];
+      if (f == CellFlag::Surface || f == CellFlag::Empty) {
+        dirichlet = true;
+        break;
+      }
+    }
+  if (!dirichlet)
+    for (int gi = 0; gi < nx && pin_ < 0; ++gi)
+      for (int k = 0; k < nz; ++k)
+        if (mac_.p_unknown(gi, k)) {
+          pin_ = mac_.p_gid(gi, k);
+          break;
+        }
+  fluid_cells_ = 0;
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = 0; k < nz; ++k)
+      if (mac_.p_unknown(gi, k)) ++fluid_cells_;
+  const double cx = 1.0 / (cfg_.grid.dx() * cfg_.grid.dx());
+  const double cz = 1.0 / (cfg_.grid.dz() * cfg_.grid.dz());
+  pressure_->begin();
+  for (int i = 0; i < nxl; ++i) {
+    const int gi = mac_.slab.i0 + i;
+    for (int k = 0; k < nz; ++k) {
+      const long long row = mac_.p_gid(gi, k);
+      // The pinned cell and every cell that is not a pressure unknown (obstacle: phi = 0;
+      // Surface: phi from the normal-stress condition; Empty: p = 0) is an identity row whose
+      // right-hand side is its value. An unknown next to such a Dirichlet cell moves the
+      // coupling to its right-hand side (solve_pressure), which keeps -L symmetric positive
+      // definite. Faces to walls, obstacles and the open outflow carry no phi flux (Neumann,
+      // eq. 14 for the projection increment).
+      if (row == pin_ || !mac_.p_unknown(gi, k)) {
+        pressure_->add(row, row, row == pin_ ? cx + cz : 1.0);
+        continue;
+      }
+      auto couple = [&](int gn, int kn, double c) {
+        const CellFlag f = mac_.gflag(gn, kn);
+        if (f == CellFlag::Obstacle) return;
+        pressure_->add(row, row, c);
+        if (!mac_.p_unknown(gn, kn)) return;  // Dirichlet neighbour: right-hand side
+        const long long col = mac_.p_gid(per ? (gn % nx + nx) % nx : gn, kn);
+        if (col != pin_) pressure_->add(row, col, -c);
+      };
+      if (gi + 1 < nx || per) couple(gi + 1, k, cx);
+      if (gi - 1 >= 0 || per) couple(gi - 1, k, cx);
+      if (k + 1 < nz) couple(gi, k + 1, cz);
+      if (k - 1 >= 0) couple(gi, k - 1, cz);
+    }
+  }
+  pressure_->end();
+}
+
+// One predictor-projection from the state at t^n with the current nu_eff and friction factors:
+// u*, phi, u^{n+1} = u* - dt G phi and p^{n+1} into u_new_, w_new_, p_new_. In the 'Nonlinear'
+// coupling this is the map P(q) whose fixed point is the new pressure.
+void NdamSolver::project(double dt) {
+  const auto t1 = Clock::now();
+  mom_stats_ = solvers::SolveStats{};
+  predict_velocity(dt, u_new_, w_new_);
+  stats_.step_momentum += detail::seconds_since(t1);
+  const auto t2 = Clock::now();
+  Field phi;
+  solve_pressure(dt, u_new_, w_new_, phi);
+  u_star_ = u_new_;
+  w_star_ = w_new_;
+  correct_velocity(dt, phi, u_new_, w_new_);
+  p_new_ = p_;
+  // Rotational pressure update (Timmermans et al. 1996; Guermond, Minev & Shen 2006) for the
+  // implicit treatment: p^{n+1} = p^n + phi - 2 nu_eff div u*. In the stress form
+  // div(2 nu D u) = 2 nu grad(div u) - nu curl curl u (constant nu), so 2 nu div u* is the part
+  // of the implicit viscous term that the projection removes from u*; putting it back into the
+  // pressure removes the splitting error that otherwise makes the pressure lag by
+  // O(nu dt / dx^2) steps when nu_eff is large (a Stokes-limit Uzawa iteration with step
+  // 2 nu_eff). It vanishes at a steady state and for the explicit scheme (the paper's) it is
+  // not used.
+  const double rot = cfg_.momentum == Momentum::Implicit ? 2.0 : 0.0;
+  for (int i = 0; i < mac_.slab.nx_local; ++i)
+    for (int k = 0; k < cfg_.grid.nz; ++k) {
+      if (mac_.p_unknown(mac_.slab.i0 + i, k))
+        p_new_(i, k) += phi(i, k) - rot * nu_rot_(i, k) * divergence(u_star_, w_star_, i, k);
+      else  // Dirichlet cells: phi is the increment to their value (surface normal stress,
+            // eq. 26 at an interface, 0 when Empty); obstacles: phi = 0
+        p_new_(i, k) += phi(i, k);
+    }
+  if (!cfg_.free_surface) normalise_pressure(p_new_);
+  fill_scalar_ghosts(p_new_);
+  stats_.step_pressure += detail::seconds_since(t2);
+}
+
+double NdamSolver::divergence(const Field& u, const Field& w, int i, int k) const {
+  return (u(i, k) - u(i - 1, k)) / cfg_.grid.dx() + (w(i, k) - w(i, k - 1)) / cfg_.grid.dz();
+}
+
+// max |div u| over the material cells of (u, w), on all ranks.
+double NdamSolver::max_abs_divergence(const Field& u, const Field& w) const {
+  double dmax = 0.0;
+  for (int i = 0; i < mac_.slab.nx_local; ++i)
+    for (int k = 0; k < cfg_.grid.nz; ++k)
+      if (mac_.fluid(mac_.slab.i0 + i, k)) dmax = std::max(dmax, std::abs(divergence(u, w, i, k)));
+  return detail::allreduce_max(dmax, comm_);
+}
+
+// -L phi = -div(u*)/dt on the pressure unknowns (Fluid cells). Dirichlet cells (Surface:
+// the increment to the normal-stress value, Empty: 0, obstacles: 0) are identity rows with
+// their value p_dir_, and their coupling to an unknown goes to its right-hand side. Without a
+// Dirichlet cell (closed box) the right-hand side is made compatible (zero sum; it is zero up
+// to round-off anyway since the wall fluxes vanish) and one cell is pinned.
+void NdamSolver::solve_pressure(double dt, const Field& us, const Field& ws, Field& phi) {
+  const int nxl = mac_.slab.nx_local, nz = cfg_.grid.nz, nx = cfg_.grid.nx;
+  const bool per = cfg_.periodic_x();
+  const double cx = 1.0 / (cfg_.grid.dx() * cfg_.grid.dx());
+  const double cz = 1.0 / (cfg_.grid.dz() * cfg_.grid.dz());
+  std::vector<double> rhs(static_cast<std::size_t>(nxl * nz)), x(rhs.size(), 0.0);
+  double sum = 0.0;
+  for (int i = 0; i < nxl; ++i)
+    for (int k = 0; k < nz; ++k) {
+      const int gi = mac_.slab.i0 + i;
+      const auto q = static_cast<std::size_t>(i * nz + k);
+      if (!mac_.p_unknown(gi, k)) {
+        rhs[q] = x[q] = p_dir_(i, k);
+        continue;
+      }
+      double r = -divergence(us, ws, i, k) / dt;
+      sum += r;
+      auto dir = [&](int ii, int kn, double c) {
+        const int gn = mac_.slab.i0 + ii;
+        if (!per && (gn < 0 || gn >= nx)) return;
+        if (kn < 0 || kn >= nz) return;
+        const CellFlag f = mac_.gflag(gn, kn);
+        if (f == CellFlag::Obstacle || f == CellFlag::Fluid) return;
+        r += c * p_dir_(ii, kn);
+      };
+      if (cfg_.free_surface) {
+        dir(i + 1, k, cx);
+        dir(i - 1, k, cx);
+        dir(i, k + 1, cz);
+        dir(i, k - 1, cz);
+      }
+      rhs[q] = r;
+    }
+  if (pin_ >= 0) {
+    const double mean = detail::allreduce_sum(sum, comm_) / static_cast<double>(fluid_cells_);
+    const long long first = mac_.p_gid(mac_.slab.i0, 0);
+    for (int i = 0; i < nxl; ++i)
+      for (int k = 0; k < nz; ++k) {
+        const auto q = static_cast<std::size_t>(i * nz + k);
+        const long long row = first + static_cast<long long>(q);
+        if (row == pin_ || !mac_.p_unknown(mac_.slab.i0 + i, k)) rhs[q] = 0.0;  // pinned or obstacle
+        else rhs[q] -= mean;
+      }
+  }
+  p_stats_ = pressure_->solve(rhs, x);
+  ++stats_.pressure_solves;
+  stats_.pressure_iterations += p_stats_.iterations;
+  stats_.worst_pressure_residual = std::max(stats_.worst_pressure_residual, p_stats_.residual);
+  if (!p_stats_.converged) ++stats_.unconverged_solves;
+  phi = Field(nxl, nz);
+  for (int i = 0; i < nxl; ++i)
+    for (int k = 0; k < nz; ++k) phi(i, k) = x[static_cast<std::size_t>(i * nz + k)];
+  fill_scalar_ghosts(phi);
+}
+
+void NdamSolver::correct_velocity(double dt, const Field& phi, Field& us, Field& ws) const {
+  const int nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  for (int i = 0; i < nxl; ++i) {
+    for (int k = 0; k < nz; ++k) {
+      if (mac_.u_unknown(i, k)) us(i, k) -= dt * (phi(i + 1, k) - phi(i, k)) / dx;
+      if (mac_.w_unknown(i, k)) ws(i, k) -= dt * (phi(i, k + 1) - phi(i, k)) / dz;
+    }
+  }
+  fill_velocity_ghosts(us, ws);
+}
+
+// The pressure of a closed box is fixed up to a constant. The constant is chosen so that p,
+// extrapolated linearly to the top wall z = Lz, averages to zero there: the top of the box plays
+// the role of the free surface, and the tau_p p yield stress sees a pressure that grows with
+// depth from 0.
+void NdamSolver::normalise_pressure(Field& p) const {
+  // Columns whose two top cells are fluid; if an obstacle covers the top of every column, the
+  // mean over the fluid cells is set to zero instead.
+  const int nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  double sums[4] = {0.0, 0.0, 0.0, 0.0};  // top sum, top columns, fluid sum, fluid cells
+  for (int i = 0; i < nxl; ++i) {
+    const int gi = mac_.slab.i0 + i;
+    if (nz > 1 && mac_.fluid(gi, nz - 1) && mac_.fluid(gi, nz - 2)) {
+      sums[0] += 1.5 * p(i, nz - 1) - 0.5 * p(i, nz - 2);
+      sums[1] += 1.0;
+    }
+    for (int k = 0; k < nz; ++k)
+      if (mac_.fluid(gi, k)) {
+        sums[2] += p(i, k);
+        sums[3] += 1.0;
+      }
+  }
+  double all[4];
+  MPI_Allreduce(sums, all, 4, MPI_DOUBLE, MPI_SUM, comm_);
+  const double c = all[1] > 0.0 ? all[0] / all[1] : all[2] / all[3];
+  for (auto& v : p.data()) v -= c;
+}
+
+// Eq. (10) at t = 0: -L p = -div F with F = -C(u) + V(u) + g on the unknown faces and the
+// Neumann condition (14) n.grad p = n.F, i.e. F = 0 on the fixed wall-normal faces. This is the
+// projection of the force field, computed with dt = 1 through the same routines.
+void NdamSolver::initial_pressure() {
+  Field fu = u_, fw = w_;
+  explicit_force(false, fu, fw);
+  mac_.exchange(fu);
+  mac_.exchange(fw);
+  Field phi;
+  solve_pressure(1.0, fu, fw, phi);
+  // solve_pressure returns phi with -L phi = -div F, i.e. grad phi is the gradient part of F.
+  p_ = phi;
+  if (!cfg_.free_surface) normalise_pressure(p_);
+  fill_scalar_ghosts(p_);
+}
+
+}  // namespace granflow::ndam

@@ -1,0 +1,135 @@
+#pragma once
+// Coupled-chute scenes for the tests, written as XML and built through the scene interface
+// (scene::load and scene::build_model, as the granflow app does), and small helpers.
+#include "granflow/coupling/coupled_model.hpp"
+#include "granflow/scene/scene.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace granflow::test {
+
+/// A chute scene in the style of the paper's Setup I/II (zeta = 50 deg, phi = 33, delta = 22,
+/// silo gate h_in = 0.06 m, u_in = 0.37 m/s, Drucker-Prager with Coulomb sliding) at a coarse
+/// resolution: dx = dz = 10 mm in 2D, dx = 10 mm in 1D.
+struct Chute {
+  std::string name = "chute";
+  std::string model = "Coupled";
+  std::string models = "2D, 1D, 2D";
+  std::string interfaces = "0.2, 0.7";
+  std::string decomposition_extra;  // further Decomposition parameters (XML lines)
+  std::string layout = "Static";
+  int dam_cells_per_column = 1;  // DAM cells per 2D column
+  double length = 1.0;
+  bool wall = false;  // rigid wall at x = L (Setup II), else open end (Setup I)
+  double end_time = 0.5;
+  double slope = 50.0;
+  double cell = 0.01;
+  double cfl = 0.5;  // N-DAM CFL
+
+  std::string xml() const {
+    const int nx = static_cast<int>(std::lround(length / cell));
+    const std::string n = std::to_string(nx);
+    std::string s = R"x(<ParameterList name="granflow">
+  <Parameter name="Name" type="string" value=")x" + name + R"x("/>
+  <Parameter name="Model" type="string" value=")x" + model + R"x("/>)x";
+    if (model == "Coupled")
+      s += R"x(
+  <ParameterList name="Decomposition">
+    <Parameter name="Models" type="Array(string)" value="{)x" + models + R"x(}"/>
+    <Parameter name="Interfaces" type="Array(double)" value="{)x" + interfaces + R"x(}"/>
+    <Parameter name="Layout" type="string" value=")x" + layout + R"x("/>)x" + decomposition_extra + R"x(
+  </ParameterList>
+  <ParameterList name="DAM">
+    <Parameter name="Cells" type="int" value=")x" + std::to_string(nx * dam_cells_per_column) + R"x("/>
+    <Parameter name="Scheme" type="string" value="Beam-Warming"/>
+  </ParameterList>)x";
+    s += R"x(
+  <ParameterList name="Material">
+    <Parameter name="Internal friction angle" type="double" value="33"/>
+    <Parameter name="Bed friction angle" type="double" value="22"/>
+    <Parameter name="Density" type="double" value="1440"/>
+  </ParameterList>
+  <ParameterList name="Channel">
+    <Parameter name="Length" type="double" value=")x" + std::to_string(length) + R"x("/>
+    <Parameter name="Slope angle" type="double" value=")x" + std::to_string(slope) + R"x("/>
+    <ParameterList name="Left boundary">
+      <Parameter name="Type" type="string" value="Inflow"/>
+      <Parameter name="Inflow depth" type="double" value="0.06"/>
+      <Parameter name="Inflow velocity" type="double" value="0.37"/>
+    </ParameterList>
+    <ParameterList name="Right boundary">
+      <Parameter name="Type" type="string" value=")x" + (wall ? "Wall" : "Outflow") + R"x("/>
+    </ParameterList>
+  </ParameterList>
+  <ParameterList name="N-DAM">
+    <Parameter name="Cells x" type="int" value=")x" + n + R"x("/>
+    <Parameter name="Cells z" type="int" value="15"/>
+    <Parameter name="Height" type="double" value="0.15"/>
+    <Parameter name="Momentum" type="string" value="Implicit"/>
+    <Parameter name="CFL" type="double" value=")x" + std::to_string(cfl) + R"x("/>
+    <Parameter name="Free surface" type="bool" value="true"/>
+    <Parameter name="Friction regularisation" type="double" value="100"/>
+    <ParameterList name="Boundaries">
+      <Parameter name="Left" type="string" value="No-slip"/>
+      <Parameter name="Right" type="string" value=")x" + (wall ? "Coulomb" : "Free-slip") + R"x("/>
+      <Parameter name="Bottom" type="string" value="Coulomb"/>
+      <Parameter name="Top" type="string" value="Free-slip"/>
+    </ParameterList>
+  </ParameterList>
+  <ParameterList name="Rheology">
+    <Parameter name="Model" type="string" value="Drucker-Prager"/>
+    <Parameter name="Viscosity" type="double" value="0.003"/>
+    <Parameter name="Yield stress" type="double" value="0"/>
+    <Parameter name="Regularisation" type="double" value="100"/>
+  </ParameterList>
+  <ParameterList name="Time">
+    <Parameter name="End time" type="double" value=")x" + std::to_string(end_time) + R"x("/>
+  </ParameterList>
+  <ParameterList name="Output">
+    <Parameter name="Directory" type="string" value="out_)x" + name + R"x("/>
+  </ParameterList>
+</ParameterList>
+)x";
+    return s;
+  }
+
+  /// Writes the scene file and builds its model through the scene interface.
+  std::unique_ptr<core::Stepper> build() const {
+    const std::string file = "test_coupled_2d_" + name + ".xml";
+    std::ofstream(file) << xml();
+    return scene::build_model(scene::load(file));
+  }
+};
+
+inline void run(core::Stepper& s, double t_end) {
+  while (s.time() < t_end - 1e-12) {
+    s.step(std::min(s.stable_dt(), t_end - s.time()));
+    const auto h = s.check();
+    ASSERT_TRUE(h.ok) << h.reason << " at x = " << h.x;
+    s.accept();
+  }
+}
+
+inline const coupling::CoupledModel& coupled(const core::Stepper& s) {
+  return dynamic_cast<const coupling::CoupledModel&>(s);
+}
+
+/// Relative L2 difference of b against a (reference) over the columns where a.h > h_min.
+inline double rel_l2(const std::vector<double>& a, const std::vector<double>& b,
+              const std::vector<double>& ha, double h_min) {
+  double num = 0, den = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (ha[i] <= h_min) continue;
+    num += (b[i] - a[i]) * (b[i] - a[i]);
+    den += a[i] * a[i];
+  }
+  return den > 0 ? std::sqrt(num / den) : 0.0;
+}
+
+}  // namespace granflow::test
