@@ -1,33 +1,47 @@
 // granflow: run a scene (a Teuchos ParameterList XML file) to its end time.
 //
-//   granflow <scene.xml>          run the scene
-//   granflow --check <scene.xml>  validate the scene only
+//   granflow [--overwrite] <scene.xml>  run the scene
+//   granflow --check <scene.xml>        validate the scene only
 //   granflow --parameters         print the parameter reference (docs/parameters.md)
 //   granflow --help
+#include "build_info.hpp"
 #include "granflow/core/simulation.hpp"
 #include "granflow/params/parameters.hpp"
+#include "granflow/scene/memory.hpp"
 #include "granflow/scene/scene.hpp"
 
 #include <Teuchos_GlobalMPISession.hpp>
 
+#include <mpi.h>
+
+#include <cstdio>
 #include <iostream>
+#include <new>
 #include <sstream>
 #include <string>
 
 namespace {
 void usage(std::ostream& os) {
-  os << "usage: granflow [--check] <scene.xml>\n"
+  os << "usage: granflow [--check] [--overwrite] <scene.xml>\n"
         "       granflow --parameters\n"
         "       granflow --help\n\n"
         "Runs a granular-flow scene written as a Teuchos ParameterList XML file (see inputs/ and\n"
-        "docs/parameters.md) and writes profiles.csv, fields.h5 + fields.xdmf, checkpoint.h5 and\n"
-        "summary.json into the scene's 'Output->Directory'.\n\n"
+        "docs/parameters.md) and writes profiles.csv, fields.h5 + fields.xdmf, checkpoint.h5,\n"
+        "summary.json and run.json into the scene's 'Output->Directory'. A run owns that\n"
+        "directory: a rerun of the same scene replaces its files; another scene's files there\n"
+        "stop the run (exit 2) unless --overwrite is given.\n\n"
         "options:\n"
-        "  --check       validate the scene and exit (0 if valid)\n"
+        "  --check       validate the scene, its restart checkpoint, its memory need and its\n"
+        "                run directory, and exit (0 if valid)\n"
+        "  --overwrite   replace the files of another scene's run in the run directory\n"
         "  --parameters  print the full parameter reference (Markdown) generated from the code\n"
         "  --help        this text\n\n"
+        "SIGINT (Ctrl-C) or SIGTERM ends the step in progress, writes checkpoint.h5 of the last\n"
+        "accepted state and summary.json with status \"interrupted\"; a second signal ends the\n"
+        "run at once.\n\n"
         "exit codes: 0 completed, 1 usage, 2 invalid input, 3 diverged (last good output and\n"
-        "checkpoint kept), 4 runtime error, 5 step limit reached\n";
+        "checkpoint kept), 4 runtime error, 5 step limit reached, 128 + signal when interrupted\n"
+        "(130 SIGINT, 143 SIGTERM)\n";
 }
 }  // namespace
 
@@ -35,6 +49,10 @@ int main(int argc, char** argv) {
   using namespace granflow;
   // 1. MPI: Debian's Trilinos is built on OpenMPI; the 2D solvers run on the run's communicator.
   Teuchos::GlobalMPISession mpi(&argc, &argv, nullptr);
+  // Logs: a redirected stdout is block-buffered by default, so a log file stayed empty while
+  // the run went on; line buffering shows each message when it is written (stderr is
+  // unbuffered already).
+  std::setvbuf(stdout, nullptr, _IOLBF, BUFSIZ);
 
   // Messages go to the terminal from rank 0 only (every rank runs this main under mpiexec).
   const bool root = mpi.getRank() == 0;
@@ -46,7 +64,7 @@ int main(int argc, char** argv) {
   // extra one is a usage error (exit 1) whatever comes first: "--help --bogus" and
   // "--parameters extra" must not succeed quietly.
   std::string file;
-  bool check_only = false, help = false, reference = false;
+  bool check_only = false, help = false, reference = false, overwrite = false;
   int others = 0;  // arguments other than --help / --parameters
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -56,6 +74,9 @@ int main(int argc, char** argv) {
       reference = true;
     } else if (a == "--check") {
       check_only = true;
+      ++others;
+    } else if (a == "--overwrite") {
+      overwrite = true;
       ++others;
     } else if (!a.empty() && a[0] == '-') {
       const std::string shown = params::shown(a);  // "..." with unprintable bytes as \xNN
@@ -89,18 +110,34 @@ int main(int argc, char** argv) {
   try {
     // 3. Read and validate the scene; inconsistent input stops here.
     const scene::Scene s = scene::load(file);
-    // 4. Build only what the scene's model uses, with its initial state.
+    auto rc = core::RunControl::from_parameters(s.params->sublist("Time"),
+                                                s.params->sublist("Output"), s.dir);
+    rc.overwrite = overwrite;
+    // 4. Memory: estimate before anything is allocated (the ranks on this node share it).
+    MPI_Comm node;
+    MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+    int node_ranks = 1;
+    MPI_Comm_size(node, &node_ranks);
+    MPI_Comm_free(&node);
+    const auto memory = scene::estimate_memory(s, mpi.getNProc(), node_ranks);
+    scene::check_memory(s, memory, scene::machine_memory());
+    // 5. The restart checkpoint and the run directory (before the model is built).
+    core::preflight(*s.params, rc);
+    // 6. Build only what the scene's model uses, with its initial state (a signal from here on
+    //    stops the run before its first step, with a checkpoint and a summary).
+    if (!check_only) core::catch_interrupts();
     auto model = scene::build_model(s);
-    const auto rc = core::RunControl::from_parameters(s.params->sublist("Time"),
-                                                      s.params->sublist("Output"), s.dir);
     if (check_only) {
-      out << file << ": valid scene '" << s.name << "' (model " << s.model << ")\n";
+      out << file << ": valid scene '" << s.name << "' (model " << s.model
+          << "; memory estimate " << scene::format_bytes(memory.bytes) << ")\n";
       return core::kOk;
     }
     out << "granflow: scene '" << s.name << "', model " << s.model << ", to t = "
               << rc.end_time << " s, output in " << rc.directory << "\n";
-    // 5. Run to the end time.
+    // 7. Run to the end time.
     core::Simulation sim(s.name, *s.params, std::move(model), rc);
+    sim.set_build_info(granflow_build_info());
+    sim.set_memory_estimate(memory.bytes);
     const int code = sim.run();
     const auto mb = sim.model().mass_balance();
     out << "granflow: " << (code == core::kOk ? "completed" : "stopped") << " at t = "
@@ -111,6 +148,10 @@ int main(int argc, char** argv) {
   } catch (const params::InputError& e) {
     err << "granflow: invalid input: " << e.what() << "\n";
     return core::kInputError;
+  } catch (const std::bad_alloc&) {
+    err << "granflow: error: out of memory (std::bad_alloc); see 'memory estimate' of "
+           "granflow --check for what the scene needs\n";
+    return core::kRuntimeError;
   } catch (const std::exception& e) {
     err << "granflow: error: " << e.what() << "\n";
     return core::kRuntimeError;

@@ -1,5 +1,6 @@
 #include "granflow/core/simulation.hpp"
 
+#include "granflow/core/run_record.hpp"
 #include "granflow/io/output.hpp"
 #include "granflow/params/parameters.hpp"
 
@@ -8,7 +9,9 @@
 #include <mpi.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -87,6 +90,7 @@ RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
 struct Simulation::Io {
   io::ProfileWriter profiles;
   io::Hdf5FieldOutput fields;
+  std::unique_ptr<DirectoryLock> lock;  // rank 0, for the whole run
 };
 
 Simulation::Simulation(std::string scene_name, const Teuchos::ParameterList& validated,
@@ -95,26 +99,6 @@ Simulation::Simulation(std::string scene_name, const Teuchos::ParameterList& val
       rc_(std::move(rc)), io_(std::make_shared<Io>()) {}
 
 namespace {
-nlohmann::json to_json(const Teuchos::ParameterList& pl) {
-  nlohmann::json j = nlohmann::json::object();
-  for (auto it = pl.begin(); it != pl.end(); ++it) {
-    const auto& name = pl.name(it);
-    const auto& e = pl.entry(it);
-    if (e.isList()) {
-      j[name] = to_json(pl.sublist(name));
-    } else if (e.isType<double>()) {
-      j[name] = e.getValue<double>(nullptr);
-    } else if (e.isType<int>()) {
-      j[name] = e.getValue<int>(nullptr);
-    } else if (e.isType<bool>()) {
-      j[name] = e.getValue<bool>(nullptr);
-    } else {
-      j[name] = Teuchos::toString(e.getAny(false));
-    }
-  }
-  return j;
-}
-
 std::string fmt_seconds(double s) {
   std::ostringstream os;
   os.setf(std::ios::fixed);
@@ -134,42 +118,200 @@ bool io_rank() {
   MPI_Comm_rank(MPI_COMM_WORLD, &rank);
   return rank == 0;
 }
+
+bool mpi_active(int* size = nullptr) {
+  int init = 0, fin = 0;
+  MPI_Initialized(&init);
+  if (init) MPI_Finalized(&fin);
+  if (!init || fin) return false;
+  int n = 1;
+  MPI_Comm_size(MPI_COMM_WORLD, &n);
+  if (size) *size = n;
+  return true;
+}
+
+// An InputError found on rank 0 (which alone looks at the run directory) stops every rank.
+void agree_on_error(std::string& message) {
+  int n = 1;
+  if (!mpi_active(&n) || n == 1) return;
+  int len = static_cast<int>(message.size());
+  MPI_Bcast(&len, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  message.resize(static_cast<std::size_t>(len));
+  MPI_Bcast(message.data(), len, MPI_CHAR, 0, MPI_COMM_WORLD);
+}
+
+// --- interrupts ---------------------------------------------------------------------------
+// The handler only records the signal; the time loop looks at it between steps, so the step in
+// progress (a linear solve, an MPI exchange) ends normally and every rank stops at the same
+// step. SA_RESETHAND: a second Ctrl-C finds the default action and ends the run at once.
+volatile std::sig_atomic_t g_signal = 0;
+extern "C" void on_signal(int sig) { g_signal = sig; }
+
+void install(struct sigaction* old_int, struct sigaction* old_term) {
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESETHAND | SA_RESTART;
+  sigaction(SIGINT, &sa, old_int);
+  sigaction(SIGTERM, &sa, old_term);
+}
+
+// For the run: our handler (again), the previous ones restored afterwards. A signal that came
+// before (while the model was built, see catch_interrupts()) stays pending, and the default
+// action it left in place stays, so that a second signal still ends the process.
+class SignalGuard {
+ public:
+  SignalGuard() : installed_(g_signal == 0) {
+    if (installed_) install(&old_int_, &old_term_);
+  }
+  ~SignalGuard() {
+    if (!installed_) return;
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+  SignalGuard(const SignalGuard&) = delete;
+  SignalGuard& operator=(const SignalGuard&) = delete;
+
+ private:
+  bool installed_;
+  struct sigaction old_int_ {}, old_term_ {};
+};
+
+// The signal as all ranks agree on it (once per step: one integer MPI_Allreduce, so a signal
+// that reaches the ranks at different times still stops them at the same step).
+int pending_signal() {
+  int local = g_signal, n = 1;
+  if (!mpi_active(&n) || n == 1) return local;
+  int global = 0;
+  MPI_Allreduce(&local, &global, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+  return global;
+}
+
+const char* signal_name(int sig) {
+  return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal";
+}
+
+std::string joined(const std::vector<std::string>& lines) {
+  std::string s;
+  for (const auto& l : lines) s += l + "\n";
+  return s;
+}
+
+io::Checkpoint read_restart(const std::string& file) {
+  try {
+    return io::read_checkpoint(file);
+  } catch (const io::CheckpointError& e) {
+    throw params::InputError("parameter 'granflow->Output->Restart from' = " + params::shown(file) +
+                             ": " + e.what() + "; allowed: an intact checkpoint.h5 of this scene");
+  }
+}
+
+std::string host_name() {
+  char buf[256] = {0};
+  if (gethostname(buf, sizeof buf - 1) != 0) return "unknown";
+  return buf;
+}
+
+// Peak resident set of this process (VmHWM of /proc/self/status) [B]; -1 if unknown.
+double peak_resident() {
+  std::ifstream in("/proc/self/status");
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) * 1024.0;
+  return -1.0;
+}
+
+std::string mpi_library() {
+  char buf[MPI_MAX_LIBRARY_VERSION_STRING] = {0};
+  int len = 0;
+  MPI_Get_library_version(buf, &len);
+  std::string s(buf, static_cast<std::size_t>(std::max(len, 0)));
+  const auto nl = s.find_first_of("\n,");
+  return nl == std::string::npos ? s : s.substr(0, nl);
+}
 }  // namespace
+
+void catch_interrupts() { install(nullptr, nullptr); }
+
+void preflight(const Teuchos::ParameterList& validated, const RunControl& rc) {
+  const auto canonical = canonical_parameters(validated);
+  const auto identity = scene_identity(canonical);
+  if (!rc.restart_from.empty())
+    check_restart(read_restart(rc.restart_from), rc.restart_from, canonical, rc.end_time);
+  std::string err;
+  if (io_rank()) {
+    try {
+      const DirectoryLock probe(rc.directory);  // refused while another run holds it
+      plan_directory(rc.directory, identity, canonical, rc.overwrite, !rc.restart_from.empty(),
+                     rc.restart_from, validated);
+    } catch (const params::InputError& e) {
+      err = e.what();
+    } catch (const std::exception& e) {  // e.g. no permission to read the directory
+      err = "parameter 'granflow->Output->Directory' = " + params::shown(rc.directory) + ": " +
+            e.what();
+    }
+  }
+  agree_on_error(err);
+  if (!err.empty()) throw params::InputError(err);
+}
+
+void Simulation::write_checkpoint() {
+  io::Checkpoint c;
+  c.set("run/time", model_->time());
+  c.set("run/origin", origin_);
+  c.set_text(kSceneKey, joined(canonical_));
+  c.set_text(kIdentityKey, identity_);
+  model_->save(c);
+  if (io_rank()) io::write_checkpoint(rc_.directory + "/checkpoint.h5", c);
+  model_->restart_point();  // a restart from here and the run itself continue alike
+}
 
 void Simulation::write_output() {
   const auto t1 = Clock::now();
   const double t = model_->time();
-  const auto profile = model_->profile();
-  if (io_rank()) io_->profiles.write(t, profile);
+  {
+    const auto profile = model_->profile();
+    if (io_rank()) io_->profiles.write(t, profile);
+  }
   if (rc_.fields) {
     io::FieldWriter w;
     model_->write_fields(w);
     if (io_rank()) io_->fields.write(t, w);
   }
-  if (rc_.checkpoint) {
-    io::Checkpoint c;
-    c.set("run/time", t);
-    model_->save(c);
-    if (io_rank()) io::write_checkpoint(rc_.directory + "/checkpoint.h5", c);
-    model_->restart_point();
-  }
+  if (rc_.checkpoint) write_checkpoint();
   ++outputs_;
   last_output_t_ = t;
   phase_seconds_["output"] += std::chrono::duration<double>(Clock::now() - t1).count();
+  show_progress(false, true);
 }
 
-void Simulation::write_summary(const std::string& status, const std::string& reason,
-                               int code) const {
+void Simulation::write_summary(const std::string& status, const std::string& reason, int code) {
   nlohmann::json s;
   s["scene"] = scene_name_;
   s["model"] = model_->model_name();
-  s["parameters"] = to_json(params_);
+  s["identity"] = identity_;
+  s["parameters"] = parameters_json(params_);
   s["status"] = status;
   s["reason"] = reason;
   s["exit_code"] = code;
   s["start_time"] = t0_;
   s["final_time"] = model_->time();
   s["steps"] = model_->steps();
+  if (restarted_)
+    s["restart"] = {{"from", rc_.restart_from}, {"checkpoint_time", restart_time_}};
+  // Provenance: which code, built how, ran where (tells runs and benchmarks apart).
+  nlohmann::json prov = nlohmann::json::object();
+  for (const auto& [k, v] : build_info_) prov[k] = v;
+  int ranks = 1;
+  mpi_active(&ranks);
+  prov["ranks"] = ranks;
+  prov["host"] = host_name();
+  prov["hdf5_version"] = io::hdf5_version();
+  prov["mpi_library"] = mpi_library();
+  s["provenance"] = prov;
+  s["memory"] = {{"estimate_bytes", memory_estimate_},
+                 {"peak_resident_bytes_rank0", peak_resident()},
+                 {"note", "estimate: all ranks on this node, before the run (granflow --check); "
+                          "peak: VmHWM of rank 0"}};
   const double wall = std::chrono::duration<double>(Clock::now() - wall0_).count();
   s["wall_time"] = {{"total", wall}};
   for (const auto& [k, v] : phase_seconds_) s["wall_time"][k] = v;
@@ -203,23 +345,33 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   nlohmann::json layout = nlohmann::json::array();
   layout.push_back({{"t", t0_}, {"subdomains", subdomains}});
   s["interfaces"] = {{"positions_over_time", layout}, {"moves", 0}};
-  s["outputs"] = {{"snapshots", outputs_}, {"directory", rc_.directory}};
+  s["outputs"] = {{"snapshots", outputs_}, {"directory", rc_.directory}, {"files", files_}};
   if (!io_rank()) return;
   // Serialise before the file is opened, and replace bytes that are not UTF-8 instead of
   // throwing: a string that slipped through must not leave a 0-byte summary.json at the end of
   // a run whose results are on disk.
   const std::string text = s.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
-  std::ofstream f(rc_.directory + "/summary.json");
-  f << text << "\n";
+  {
+    std::ofstream f(rc_.directory + "/summary.json");
+    f << text << "\n";
+  }
+  write_manifest(rc_.directory, RunManifest{scene_name_, model_->model_name(), identity_,
+                                            canonical_, files_, status});
 }
 
-void Simulation::show_progress(bool final) {
+void Simulation::show_progress(bool final, bool at_output) {
   if (!rc_.progress || !io_rank()) return;
-  const auto now = Clock::now();
+  // On a terminal: one line rewritten in place (at most 4 times a second). In a log (stderr a
+  // file or a pipe): one plain line per output time and one at the end.
   const bool tty = isatty(fileno(stderr));
-  const double since = std::chrono::duration<double>(now - last_progress_).count();
-  if (!final && since < (tty ? 0.25 : 5.0)) return;
+  const auto now = Clock::now();
+  if (!final) {
+    if (tty && std::chrono::duration<double>(now - last_progress_).count() < 0.25) return;
+    if (!tty && !at_output) return;
+  }
+  if (!tty && model_->steps() == last_progress_step_) return;  // this line is in the log
   last_progress_ = now;
+  last_progress_step_ = model_->steps();
   const double wall = std::chrono::duration<double>(now - wall0_).count();
   const double t = model_->time();
   const double done = (t - t0_) / std::max(rc_.end_time - t0_, 1e-300);
@@ -233,35 +385,129 @@ void Simulation::show_progress(bool final) {
   std::cerr.flush();
 }
 
+int Simulation::interrupted(int sig) {
+  // The last accepted state goes into the checkpoint (also with 'Checkpoint' = false: it is
+  // what a restart needs); profiles and fields stay at the output times.
+  const auto t1 = Clock::now();
+  write_checkpoint();
+  phase_seconds_["output"] += std::chrono::duration<double>(Clock::now() - t1).count();
+  if (std::find(files_.begin(), files_.end(), "checkpoint.h5") == files_.end())
+    files_.push_back("checkpoint.h5");
+  std::ostringstream os;
+  os << signal_name(sig) << " received; stopped after step " << model_->steps() << " at t = "
+     << model_->time() << " s; checkpoint.h5 holds this state (resume with 'Output->Restart "
+     << "from')";
+  const int code = kInterruptedBase + sig;
+  write_summary("interrupted", os.str(), code);
+  show_progress(true, false);
+  if (io_rank()) std::cerr << "granflow: " << os.str() << "\n";
+  return code;
+}
+
 int Simulation::run() {
   wall0_ = last_progress_ = Clock::now();
-  std::filesystem::create_directories(rc_.directory);
-  const bool restart = !rc_.restart_from.empty();
-  if (restart) {
-    const auto c = io::read_checkpoint(rc_.restart_from);
-    model_->load(c);
+  const SignalGuard signals;
+  canonical_ = canonical_parameters(params_);
+  identity_ = scene_identity(canonical_);
+  restarted_ = !rc_.restart_from.empty();
+  io::Checkpoint ck;
+  if (restarted_) {
+    ck = read_restart(rc_.restart_from);
+    restart_time_ = check_restart(ck, rc_.restart_from, canonical_, rc_.end_time);
   }
-  t0_ = model_->time();
+  // Take the run directory: rank 0 decides (and removes an earlier run's files); every rank
+  // learns the verdict.
+  std::string err;
+  DirectoryPlan plan;
   if (io_rank()) {
-    io_->profiles.open(rc_.directory, restart);
-    if (rc_.fields) io_->fields.open(rc_.directory, restart);
+    try {
+      // Refusals first (a file in the way, another scene), then under the lock for real.
+      plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
+                     rc_.restart_from, params_);
+      std::filesystem::create_directories(rc_.directory);
+      io_->lock = std::make_unique<DirectoryLock>(rc_.directory);
+      plan = plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
+                            rc_.restart_from, params_);
+      for (const auto& f : plan.remove) std::filesystem::remove(f);
+    } catch (const params::InputError& e) {
+      err = e.what();
+    } catch (const std::exception& e) {
+      err = "parameter 'granflow->Output->Directory' = " + params::shown(rc_.directory) +
+            ": cannot prepare the run directory: " + e.what();
+    }
   }
-  if (!restart) {
+  agree_on_error(err);
+  if (!err.empty()) throw params::InputError(err);
+  files_ = {"run.json", "summary.json", "profiles.csv"};
+  if (rc_.fields) files_.insert(files_.end(), {"fields.h5", "fields.xdmf"});
+  if (rc_.checkpoint) files_.push_back("checkpoint.h5");
+  if (restarted_)  // the earlier parts of this run wrote into this directory too
+    for (const auto& f : plan.earlier_files)
+      if (std::find(files_.begin(), files_.end(), f) == files_.end()) files_.push_back(f);
+  if (io_rank())
+    write_manifest(rc_.directory, RunManifest{scene_name_, model_->model_name(), identity_,
+                                              canonical_, files_, "running"});
+  // From here on the directory is this run's: whatever stops it leaves a summary.json.
+  auto summary_then_rethrow = [&](const std::string& status, const char* what, int code) {
+    try {
+      write_summary(status, what, code);
+    } catch (...) {  // the original error is the one to report
+    }
+  };
+  try {
+    return advance(ck);
+  } catch (const params::InputError& e) {
+    summary_then_rethrow("invalid_input", e.what(), kInputError);
+    throw;
+  } catch (const std::exception& e) {
+    summary_then_rethrow("error", e.what(), kRuntimeError);
+    throw;
+  }
+}
+
+int Simulation::advance(const io::Checkpoint& ck) {
+  if (restarted_) model_->load(ck);
+  t0_ = model_->time();
+  // Outputs fall on origin + k Interval, origin the start of the scene's first run (kept in the
+  // checkpoint), so a restart from any checkpoint (an output time, an interrupt, an end time
+  // that is no output time) writes at the same times as a straight run. k Interval, not a sum
+  // of Intervals: the same double in both runs.
+  origin_ = restarted_ && ck.has_scalar("run/origin") ? ck.scalar("run/origin") : t0_;
+  const double eps_t = 1e-9 * std::max(1.0, rc_.end_time);  // round-off of t += dt
+  auto output_time = [&](long k) { return origin_ + static_cast<double>(k) * rc_.output_interval; };
+  next_index_ = 1;
+  if (restarted_) {
+    next_index_ =
+        std::max(1L, static_cast<long>(std::floor((t0_ - origin_) / rc_.output_interval)));
+    while (output_time(next_index_) <= t0_ + eps_t) ++next_index_;
+    while (next_index_ > 1 && output_time(next_index_ - 1) > t0_ + eps_t) --next_index_;
+  }
+  if (io_rank()) {
+    // A restart cuts profiles and fields back to the checkpoint time: a run stopped after its
+    // output and before its checkpoint (or interrupted) must not leave rows or snapshots the
+    // restart writes again.
+    const double keep = restarted_ ? t0_ : -1.0;
+    io_->profiles.open(rc_.directory, keep);
+    if (rc_.fields) io_->fields.open(rc_.directory, keep);
+    else if (restarted_) io::truncate_fields(rc_.directory, t0_);
+  }
+  if (!restarted_) {
     model_->adapt();  // the layout of t0 (a dynamic layout's first check)
     write_output();
   }
 
   // The time loop:  dt = min(stable dt, output and end times);  step;  check;  accept.
-  double next_output = t0_ + rc_.output_interval;
-  const double eps_t = 1e-9 * std::max(1.0, rc_.end_time);  // round-off of t += dt
+  double next_output = output_time(next_index_);
   while (model_->time() < rc_.end_time - eps_t) {
+    if (const int sig = pending_signal()) return interrupted(sig);
     if (model_->steps() >= rc_.max_steps) {
       write_summary("step_limit",
                     "reached 'Max steps' = " + std::to_string(rc_.max_steps) +
                         " before the end time",
                     kStepLimit);
-      show_progress(true);
-      std::cerr << "granflow: stopped at the step limit (t = " << model_->time() << " s)\n";
+      show_progress(true, false);
+      if (io_rank())
+        std::cerr << "granflow: stopped at the step limit (t = " << model_->time() << " s)\n";
       return kStepLimit;
     }
     const double t = model_->time();
@@ -271,8 +517,10 @@ int Simulation::run() {
       os << "stable time step " << stable << " s fell below 'Min time step' = " << rc_.min_dt
          << " s at t = " << t << " s";
       write_summary("diverged", os.str(), kDiverged);
-      std::cerr << "\ngranflow: run stopped: " << os.str()
-                << "; the last good output and checkpoint are kept in " << rc_.directory << "\n";
+      if (io_rank())
+        std::cerr << "\ngranflow: run stopped: " << os.str()
+                  << "; the last good output and checkpoint are kept in " << rc_.directory
+                  << "\n";
       return kDiverged;
     }
     // Land exactly on the next output or end time; split the last two steps before it evenly
@@ -292,8 +540,10 @@ int Simulation::run() {
       os << hl.reason << ": " << hl.quantity << " = " << hl.value << " at x = " << hl.x
          << " m, in the step from t = " << t << " s with dt = " << dt << " s";
       write_summary("diverged", os.str(), kDiverged);
-      std::cerr << "\ngranflow: run diverged: " << os.str()
-                << "; the last good output and checkpoint are kept in " << rc_.directory << "\n";
+      if (io_rank())
+        std::cerr << "\ngranflow: run diverged: " << os.str()
+                  << "; the last good output and checkpoint are kept in " << rc_.directory
+                  << "\n";
       return kDiverged;
     }
     model_->accept();
@@ -304,13 +554,13 @@ int Simulation::run() {
     phase_seconds_["layout"] += std::chrono::duration<double>(Clock::now() - t3).count();
     if (model_->time() >= next_output - eps_t) {
       write_output();
-      next_output += rc_.output_interval;
+      next_output = output_time(++next_index_);
     }
-    show_progress(false);
+    show_progress(false, false);
   }
   if (outputs_ == 0 || std::abs(model_->time() - last_output_t_) > eps_t)
     write_output();  // final state if the end time is not an output time
-  show_progress(true);
+  show_progress(true, false);
   write_summary("completed", "reached the end time", kOk);
   return kOk;
 }

@@ -2,23 +2,55 @@
 
 #include <hdf5.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <functional>
 #include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
 namespace granflow::io {
 
+namespace {
+// Output times are compared with the round-off of t += dt (the run driver's tolerance).
+bool after(double t, double t_keep) { return t > t_keep + 1e-9 * std::max(1.0, std::abs(t_keep)); }
+}  // namespace
+
 // ---------------------------------------------------------------------------------------------
 // profiles.csv
 // ---------------------------------------------------------------------------------------------
-void ProfileWriter::open(const std::string& dir, bool append) {
+void ProfileWriter::open(const std::string& dir, double keep_until) {
   const std::string file = dir + "/profiles.csv";
-  const bool exists = std::filesystem::exists(file);
-  out_.open(file, append ? std::ios::app : std::ios::trunc);
+  const char* header = "t,x,h,u_mean,eps,model";
+  if (keep_until >= 0.0 && std::filesystem::exists(file)) {
+    // Restart: keep the header and the rows up to the checkpoint time, in a new file that
+    // replaces the old one only once complete.
+    std::ifstream in(file);
+    const std::string tmp = file + ".tmp";
+    std::ofstream cut(tmp, std::ios::trunc);
+    if (!cut) throw std::runtime_error("cannot write '" + tmp + "'");
+    cut << header << '\n';
+    std::string line;
+    std::getline(in, line);  // header
+    while (std::getline(in, line)) {
+      char* end = nullptr;
+      const double t = std::strtod(line.c_str(), &end);
+      if (end == line.c_str() || *end != ',') continue;  // a row cut short by a killed run
+      if (after(t, keep_until)) break;                   // rows are in time order
+      cut << line << '\n';
+    }
+    cut.close();
+    if (!cut) throw std::runtime_error("cannot write '" + tmp + "'");
+    std::filesystem::rename(tmp, file);
+    out_.open(file, std::ios::app);
+  } else {
+    out_.open(file, std::ios::trunc);
+    if (out_) out_ << header << '\n';
+  }
   if (!out_) throw std::runtime_error("cannot write '" + file + "'");
-  if (!append || !exists) out_ << "t,x,h,u_mean,eps,model\n";
   out_ << std::setprecision(10);
 }
 
@@ -33,17 +65,46 @@ void ProfileWriter::write(double t, const core::Profile& p) {
 // HDF5 helpers
 // ---------------------------------------------------------------------------------------------
 namespace {
+// HDF5 prints its error stack to stderr by default; switch that off (once, before the first
+// call) and put the innermost and outermost descriptions of the stack into our exceptions.
+void quiet_hdf5() {
+  static const bool done = [] {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    return true;
+  }();
+  (void)done;
+}
+
+herr_t collect_error(unsigned n, const H5E_error2_t* e, void* data) {
+  auto* v = static_cast<std::vector<std::string>*>(data);
+  std::string d = e->desc ? e->desc : "";
+  if (d.empty() && e->func_name) d = e->func_name;
+  if (!d.empty() && (v->empty() || v->back() != d)) v->push_back(d);
+  (void)n;
+  return 0;
+}
+
+std::string hdf5_error_text() {
+  std::vector<std::string> stack;
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, collect_error, &stack);
+  H5Eclear2(H5E_DEFAULT);
+  if (stack.empty()) return "";
+  if (stack.size() == 1) return " (" + stack.front() + ")";
+  return " (" + stack.front() + ": " + stack.back() + ")";
+}
+
 struct H5Handle {
   hid_t id;
   herr_t (*close)(hid_t);
   H5Handle(hid_t i, herr_t (*c)(hid_t), const std::string& what) : id(i), close(c) {
-    if (id < 0) throw std::runtime_error("HDF5: " + what);
+    if (id < 0) throw std::runtime_error("HDF5: cannot " + what + hdf5_error_text());
   }
   ~H5Handle() {
     if (id >= 0) close(id);
   }
   H5Handle(const H5Handle&) = delete;
   H5Handle& operator=(const H5Handle&) = delete;
+  H5Handle(H5Handle&& o) noexcept : id(o.id), close(o.close) { o.id = -1; }
 };
 
 void write_dataset(hid_t loc, const std::string& name, const std::vector<double>& v,
@@ -56,40 +117,104 @@ void write_dataset(hid_t loc, const std::string& name, const std::vector<double>
               H5Dclose, "create dataset " + name);
   if (!v.empty() &&
       H5Dwrite(ds.id, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
-    throw std::runtime_error("HDF5: write " + name);
+    throw std::runtime_error("HDF5: cannot write " + name + hdf5_error_text());
 }
 
 std::vector<double> read_dataset(hid_t loc, const std::string& name) {
   H5Handle ds(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
   H5Handle space(H5Dget_space(ds.id), H5Sclose, "space of " + name);
   const hssize_t n = H5Sget_simple_extent_npoints(space.id);
+  if (n < 0) throw std::runtime_error("HDF5: cannot read the size of " + name + hdf5_error_text());
   std::vector<double> v(static_cast<std::size_t>(n));
   if (n > 0 && H5Dread(ds.id, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
-    throw std::runtime_error("HDF5: read " + name);
+    throw std::runtime_error("HDF5: cannot read " + name + hdf5_error_text());
   return v;
+}
+
+// Strings: a scalar dataset (texts of the checkpoint) or attribute (its checksum) of a
+// fixed-length, NUL-padded string type.
+H5Handle string_type(std::size_t n) {
+  H5Handle t(H5Tcopy(H5T_C_S1), H5Tclose, "copy the string type");
+  H5Tset_size(t.id, std::max<std::size_t>(n, 1));
+  H5Tset_strpad(t.id, H5T_STR_NULLPAD);
+  return t;
+}
+
+void write_text(hid_t loc, const std::string& name, const std::string& v) {
+  const auto type = string_type(v.size());
+  H5Handle space(H5Screate(H5S_SCALAR), H5Sclose, "create a scalar space");
+  H5Handle ds(H5Dcreate2(loc, name.c_str(), type.id, space.id, H5P_DEFAULT, H5P_DEFAULT,
+                         H5P_DEFAULT),
+              H5Dclose, "create dataset " + name);
+  std::string buf = v.empty() ? std::string(1, '\0') : v;
+  if (H5Dwrite(ds.id, type.id, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()) < 0)
+    throw std::runtime_error("HDF5: cannot write " + name + hdf5_error_text());
+}
+
+std::string read_string(std::size_t size, const std::function<herr_t(hid_t, void*)>& rd,
+                        const std::string& name) {
+  const auto type = string_type(size);
+  std::string buf(std::max<std::size_t>(size, 1), '\0');
+  if (rd(type.id, buf.data()) < 0)
+    throw std::runtime_error("HDF5: cannot read " + name + hdf5_error_text());
+  buf.resize(std::min(std::strlen(buf.c_str()), buf.size()));  // drop the NUL padding
+  return buf;
+}
+
+std::string read_text(hid_t loc, const std::string& name) {
+  H5Handle ds(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), H5Dclose, "open dataset " + name);
+  H5Handle ft(H5Dget_type(ds.id), H5Tclose, "read the type of " + name);
+  if (H5Tget_class(ft.id) != H5T_STRING)
+    throw std::runtime_error("HDF5: " + name + " is not a string");
+  return read_string(
+      H5Tget_size(ft.id),
+      [&](hid_t t, void* b) { return H5Dread(ds.id, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, b); }, name);
+}
+
+void write_string_attr(hid_t loc, const std::string& name, const std::string& v) {
+  const auto type = string_type(v.size());
+  H5Handle space(H5Screate(H5S_SCALAR), H5Sclose, "create a scalar space");
+  H5Handle a(H5Acreate2(loc, name.c_str(), type.id, space.id, H5P_DEFAULT, H5P_DEFAULT),
+             H5Aclose, "create attribute " + name);
+  if (H5Awrite(a.id, type.id, v.data()) < 0)
+    throw std::runtime_error("HDF5: cannot write attribute " + name + hdf5_error_text());
+}
+
+std::string read_string_attr(hid_t loc, const std::string& name) {
+  H5Handle a(H5Aopen(loc, name.c_str(), H5P_DEFAULT), H5Aclose, "open attribute " + name);
+  H5Handle ft(H5Aget_type(a.id), H5Tclose, "read the type of attribute " + name);
+  if (H5Tget_class(ft.id) != H5T_STRING)
+    throw std::runtime_error("HDF5: attribute " + name + " is not a string");
+  return read_string(H5Tget_size(ft.id), [&](hid_t t, void* b) { return H5Aread(a.id, t, b); },
+                     "attribute " + name);
 }
 
 void write_attr(hid_t loc, const std::string& name, double v) {
   H5Handle space(H5Screate(H5S_SCALAR), H5Sclose, "scalar space");
   H5Handle a(H5Acreate2(loc, name.c_str(), H5T_IEEE_F64LE, space.id, H5P_DEFAULT, H5P_DEFAULT),
-             H5Aclose, "attribute " + name);
-  H5Awrite(a.id, H5T_NATIVE_DOUBLE, &v);
+             H5Aclose, "create attribute " + name);
+  if (H5Awrite(a.id, H5T_NATIVE_DOUBLE, &v) < 0)
+    throw std::runtime_error("HDF5: cannot write attribute " + name + hdf5_error_text());
 }
 
 double read_attr(hid_t loc, const std::string& name) {
-  H5Handle a(H5Aopen(loc, name.c_str(), H5P_DEFAULT), H5Aclose, "attribute " + name);
+  H5Handle a(H5Aopen(loc, name.c_str(), H5P_DEFAULT), H5Aclose, "open attribute " + name);
   double v = 0.0;
-  H5Aread(a.id, H5T_NATIVE_DOUBLE, &v);
+  if (H5Aread(a.id, H5T_NATIVE_DOUBLE, &v) < 0)
+    throw std::runtime_error("HDF5: cannot read attribute " + name + hdf5_error_text());
   return v;
 }
 
 std::vector<std::string> children(hid_t group) {
   H5G_info_t info;
-  H5Gget_info(group, &info);
+  if (H5Gget_info(group, &info) < 0)
+    throw std::runtime_error("HDF5: cannot list a group" + hdf5_error_text());
   std::vector<std::string> names;
   for (hsize_t i = 0; i < info.nlinks; ++i) {
     char buf[512];
-    H5Lget_name_by_idx(group, ".", H5_INDEX_NAME, H5_ITER_INC, i, buf, sizeof buf, H5P_DEFAULT);
+    if (H5Lget_name_by_idx(group, ".", H5_INDEX_NAME, H5_ITER_INC, i, buf, sizeof buf,
+                           H5P_DEFAULT) < 0)
+      throw std::runtime_error("HDF5: cannot read a link name" + hdf5_error_text());
     names.emplace_back(buf);
   }
   return names;
@@ -105,28 +230,53 @@ std::string step_name(std::size_t i) {
 // ---------------------------------------------------------------------------------------------
 // fields.h5 + fields.xdmf
 // ---------------------------------------------------------------------------------------------
-void Hdf5FieldOutput::open(const std::string& dir, bool append) {
+void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
+  quiet_hdf5();
   dir_ = dir;
   times_.clear();
+  names_.clear();
   layouts_.clear();
+  next_index_ = 0;
   const std::string file = dir + "/fields.h5";
-  if (append && std::filesystem::exists(file)) {
-    // Re-read the snapshots already there, so that the XDMF file keeps listing them.
-    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + file);
+  if (keep_until >= 0.0 && std::filesystem::exists(file)) {
+    // Restart: drop the snapshots after the checkpoint time (a run stopped between its field
+    // output and its checkpoint wrote them; the restart writes them again), then re-read the
+    // ones kept so that the XDMF index keeps listing them.
+    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + file);
     for (const auto& s : children(f.id)) {
+      double t = 0.0;
+      {
+        H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
+        t = read_attr(g.id, "time");
+      }
+      if (after(t, keep_until)) {
+        // The space is not reclaimed (HDF5 keeps it; h5repack would), the link is gone.
+        if (H5Ldelete(f.id, s.c_str(), H5P_DEFAULT) < 0)
+          throw std::runtime_error("HDF5: cannot remove snapshot " + s + " from " + file +
+                                   hdf5_error_text());
+        continue;
+      }
       H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
-      times_.push_back(read_attr(g.id, "time"));
+      times_.push_back(t);
+      names_.push_back(s);
       std::vector<FieldWriter::Mesh> meshes;
       for (const auto& m : children(g.id)) {
         H5Handle mg(H5Gopen2(g.id, m.c_str(), H5P_DEFAULT), H5Gclose, "open " + m);
         FieldWriter::Mesh mesh{m, read_dataset(mg.id, "x_nodes"), read_dataset(mg.id, "z_nodes"),
                                {}};
         for (const auto& fld : children(mg.id))
-          if (fld != "x_nodes" && fld != "z_nodes") mesh.cell_fields.emplace_back(fld, std::vector<double>{});
+          if (fld != "x_nodes" && fld != "z_nodes")
+            mesh.cell_fields.emplace_back(fld, std::vector<double>{});
         meshes.push_back(std::move(mesh));
       }
       layouts_.push_back(std::move(meshes));
+      // step_NNNNNN: the next snapshot gets the next number after the largest kept one.
+      const auto k = s.rfind('_');
+      if (k != std::string::npos)
+        next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(k + 1)) + 1);
     }
+    H5Fflush(f.id, H5F_SCOPE_GLOBAL);
+    write_xdmf();
     return;
   }
   H5Handle f(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
@@ -134,17 +284,18 @@ void Hdf5FieldOutput::open(const std::string& dir, bool append) {
 }
 
 void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
+  quiet_hdf5();
   const std::string file = dir_ + "/fields.h5";
   {
     H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + file);
-    const std::string sname = step_name(times_.size());
+    const std::string sname = step_name(next_index_);
     H5Handle g(H5Gcreate2(f.id, sname.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-               "group " + sname);
+               "create group " + sname);
     write_attr(g.id, "time", t);
     std::vector<FieldWriter::Mesh> layout;
     for (const auto& m : fields.meshes()) {
       H5Handle mg(H5Gcreate2(g.id, m.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-                  H5Gclose, "group " + m.name);
+                  H5Gclose, "create group " + m.name);
       write_dataset(mg.id, "x_nodes", m.x_nodes, 1, m.x_nodes.size());
       write_dataset(mg.id, "z_nodes", m.z_nodes, 1, m.z_nodes.size());
       const hsize_t nx = m.x_nodes.size() - 1, nz = m.z_nodes.size() - 1;
@@ -158,7 +309,9 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
     }
     H5Fflush(f.id, H5F_SCOPE_GLOBAL);
     times_.push_back(t);
+    names_.push_back(sname);
     layouts_.push_back(std::move(layout));
+    ++next_index_;
   }
   write_xdmf();
 }
@@ -171,12 +324,17 @@ void Hdf5FieldOutput::write_xdmf() const {
     x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
       << "  <Grid Name=\"time series\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
     for (std::size_t s = 0; s < times_.size(); ++s) {
-      const std::string sname = step_name(s);
+      const std::string& sname = names_[s];
       x << "   <Grid Name=\"" << sname << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
         << "    <Time Value=\"" << times_[s] << "\"/>\n";
       for (const auto& m : layouts_[s]) {
         const std::size_t nx = m.x_nodes.size(), nz = m.z_nodes.size();
         const std::string base = "fields.h5:/" + sname + "/" + m.name + "/";
+        // The cell fields' declared shape is the dataset's: write_dataset stores a mesh with one
+        // row of cells (the 1D models' strip) as a 1-D dataset of nx - 1 values.
+        std::ostringstream cells;
+        if (nz - 1 > 1) cells << nz - 1 << " ";
+        cells << nx - 1;
         x << "    <Grid Name=\"" << m.name << "\" GridType=\"Uniform\">\n"
           << "     <Topology TopologyType=\"2DRectMesh\" Dimensions=\"" << nz << " " << nx
           << "\"/>\n"
@@ -191,7 +349,7 @@ void Hdf5FieldOutput::write_xdmf() const {
         for (const auto& f : m.cell_fields)
           x << "     <Attribute Name=\"" << f.first
             << "\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
-            << "      <DataItem Dimensions=\"" << nz - 1 << " " << nx - 1
+            << "      <DataItem Dimensions=\"" << cells.str()
             << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << base << f.first
             << "</DataItem>\n     </Attribute>\n";
         x << "    </Grid>\n";
@@ -203,8 +361,21 @@ void Hdf5FieldOutput::write_xdmf() const {
   std::filesystem::rename(tmp, dir_ + "/fields.xdmf");
 }
 
+void truncate_fields(const std::string& dir, double t_keep) {
+  if (!std::filesystem::exists(dir + "/fields.h5")) return;
+  Hdf5FieldOutput f;
+  f.open(dir, std::max(t_keep, 0.0));
+}
+
+std::string hdf5_version() {
+  unsigned maj = 0, min = 0, rel = 0;
+  H5get_libversion(&maj, &min, &rel);
+  return std::to_string(maj) + "." + std::to_string(min) + "." + std::to_string(rel);
+}
+
 // ---------------------------------------------------------------------------------------------
-// checkpoint.h5: /scalars/<key> and /arrays/<key>, '/' in keys stored as ':'
+// checkpoint.h5: /scalars/<key>, /arrays/<key>, /texts/<key> ('/' in keys stored as ':'), and
+// the root attributes "format" and "checksum"
 // ---------------------------------------------------------------------------------------------
 namespace {
 std::string enc(std::string k) {
@@ -215,31 +386,120 @@ std::string dec(std::string k) {
   for (auto& c : k) if (c == ':') c = '/';
   return k;
 }
+const char* kFormat = "granflow checkpoint 2";
+
+struct Fnv1a {
+  std::uint64_t h = 1469598103934665603ULL;
+  void bytes(const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ULL;
+  }
+  void text(const std::string& s) {
+    const std::uint64_t n = s.size();
+    bytes(&n, sizeof n);
+    bytes(s.data(), s.size());
+  }
+};
+
+std::string hex(std::uint64_t v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "fnv1a64:%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
 }  // namespace
 
+std::uint64_t checksum(const Checkpoint& c) {
+  // Lengths before contents, so that moving a byte from one entry to the next changes the sum.
+  Fnv1a f;
+  for (const auto& [k, v] : c.scalars()) {
+    f.text(k);
+    f.bytes(&v, sizeof v);
+  }
+  for (const auto& [k, v] : c.arrays()) {
+    f.text(k);
+    const std::uint64_t n = v.size();
+    f.bytes(&n, sizeof n);
+    f.bytes(v.data(), v.size() * sizeof(double));
+  }
+  for (const auto& [k, v] : c.texts()) {
+    f.text(k);
+    f.text(v);
+  }
+  return f.h;
+}
+
 void write_checkpoint(const std::string& file, const Checkpoint& c) {
+  quiet_hdf5();
   const std::string tmp = file + ".tmp";
   {
     H5Handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
                "create " + tmp);
+    write_string_attr(f.id, "format", kFormat);
+    write_string_attr(f.id, "checksum", hex(checksum(c)));
     H5Handle s(H5Gcreate2(f.id, "scalars", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-               "group scalars");
+               "create group scalars");
     for (const auto& [k, v] : c.scalars()) write_dataset(s.id, enc(k), {v}, 1, 1);
     H5Handle a(H5Gcreate2(f.id, "arrays", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-               "group arrays");
+               "create group arrays");
     for (const auto& [k, v] : c.arrays()) write_dataset(a.id, enc(k), v, 1, v.size());
+    H5Handle x(H5Gcreate2(f.id, "texts", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+               "create group texts");
+    for (const auto& [k, v] : c.texts()) write_text(x.id, enc(k), v);
+    if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
+      throw std::runtime_error("HDF5: cannot flush " + tmp + hdf5_error_text());
   }
   std::filesystem::rename(tmp, file);
 }
 
 Checkpoint read_checkpoint(const std::string& file) {
-  if (!std::filesystem::exists(file)) throw std::runtime_error("no checkpoint file '" + file + "'");
+  quiet_hdf5();
+  if (!std::filesystem::exists(file)) throw CheckpointError("no checkpoint file '" + file + "'");
+  const htri_t is_h5 = H5Fis_hdf5(file.c_str());
+  if (is_h5 <= 0) {
+    H5Eclear2(H5E_DEFAULT);
+    throw CheckpointError("'" + file + "' is not an HDF5 file (truncated, or not a checkpoint)");
+  }
   Checkpoint c;
-  H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + file);
-  H5Handle s(H5Gopen2(f.id, "scalars", H5P_DEFAULT), H5Gclose, "group scalars in " + file);
-  for (const auto& k : children(s.id)) c.set(dec(k), read_dataset(s.id, k).at(0));
-  H5Handle a(H5Gopen2(f.id, "arrays", H5P_DEFAULT), H5Gclose, "group arrays in " + file);
-  for (const auto& k : children(a.id)) c.set(dec(k), read_dataset(a.id, k));
+  std::string stored;
+  try {
+    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + file);
+    if (H5Aexists(f.id, "checksum") <= 0 || H5Aexists(f.id, "format") <= 0) {
+      const bool old = H5Lexists(f.id, "scalars", H5P_DEFAULT) > 0 &&
+                       H5Lexists(f.id, "arrays", H5P_DEFAULT) > 0;
+      H5Eclear2(H5E_DEFAULT);
+      if (!old)
+        throw CheckpointError("'" + file + "' is an HDF5 file but not a granflow checkpoint");
+      throw CheckpointError("'" + file +
+                            "' was written by an older granflow: it has no scene record and no "
+                            "checksum, so it cannot be checked against this scene; rerun the scene "
+                            "from its start");
+    }
+    const std::string format = read_string_attr(f.id, "format");
+    if (format != kFormat)
+      throw CheckpointError("'" + file + "' has the format '" + format +
+                            "'; this granflow reads '" + kFormat + "'");
+    stored = read_string_attr(f.id, "checksum");
+    H5Handle s(H5Gopen2(f.id, "scalars", H5P_DEFAULT), H5Gclose, "open group scalars");
+    for (const auto& k : children(s.id)) {
+      const auto v = read_dataset(s.id, k);
+      if (v.size() != 1)
+        throw std::runtime_error("scalar " + dec(k) + " has " + std::to_string(v.size()) +
+                                 " values");
+      c.set(dec(k), v[0]);
+    }
+    H5Handle a(H5Gopen2(f.id, "arrays", H5P_DEFAULT), H5Gclose, "open group arrays");
+    for (const auto& k : children(a.id)) c.set(dec(k), read_dataset(a.id, k));
+    H5Handle x(H5Gopen2(f.id, "texts", H5P_DEFAULT), H5Gclose, "open group texts");
+    for (const auto& k : children(x.id)) c.set_text(dec(k), read_text(x.id, k));
+  } catch (const CheckpointError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw CheckpointError("'" + file + "' cannot be read (truncated or corrupted?): " + e.what());
+  }
+  const std::string actual = hex(checksum(c));
+  if (actual != stored)
+    throw CheckpointError("'" + file + "' is corrupted: its data have the checksum " + actual +
+                          ", the file records " + stored);
   return c;
 }
 

@@ -61,6 +61,22 @@ add_test(NAME cli.parameters_doc_up_to_date
                  -P ${_cli}/params_doc.cmake)
 set_tests_properties(cli.restart_reproduces_straight_run cli.parameters_doc_up_to_date PROPERTIES LABELS "cli")
 
+# Run record (issue 13): restart checks, run-directory ownership, interrupts, memory estimate.
+# bash scripts (record_lib.sh) with h5ls/h5dump of hdf5-tools; each a few seconds.
+function(granflow_record_test name script)
+  add_test(NAME cli.${name}
+           COMMAND ${CMAKE_COMMAND} -E env EXE=$<TARGET_FILE:granflow> SRC=${_cli} ${ARGN}
+                   bash ${_cli}/${script}
+           WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+  set_tests_properties(cli.${name} PROPERTIES LABELS "cli" TIMEOUT 120)
+endfunction()
+granflow_record_test(restart_refuses_other_scene_or_damaged_checkpoint restart_checks.sh)
+granflow_record_test(run_directory_owned_by_one_scene run_directory.sh)
+granflow_record_test(interrupt_writes_checkpoint_and_summary interrupt.sh)
+granflow_record_test(interrupt_np2_all_ranks_stop interrupt.sh NP=2)
+set_tests_properties(cli.interrupt_np2_all_ranks_stop PROPERTIES LABELS "cli;mpi" PROCESSORS 2)
+granflow_record_test(memory_estimate memory.sh)
+
 # coupled model: decomposition checks
 # a 2D subdomain with the default (closed-box, no free surface) N-DAM cannot take the gate inflow
 granflow_cli_test(coupled_2d_without_free_surface 2 "Left boundary->Type' = Inflow.*closed at x = 0.*allowed: Wall"

@@ -1,7 +1,7 @@
 # Checkpoint/restart: a run to 0.1 s resumed to 0.2 s must reproduce a straight run to 0.2 s
 # bit for bit (the checkpoint stores the full state, including the staggered-grid parity and
 # the mass ledger, and the scheme is deterministic).
-# Start from empty run directories: a restart appends to the profiles.csv it finds.
+# Fresh run directories (a rerun of the same scene would replace its files anyway).
 file(REMOVE_RECURSE restart_first restart_second restart_full)
 foreach(s restart_first restart_second restart_full)
   execute_process(COMMAND ${EXE} ${SRC}/${s}.xml RESULT_VARIABLE code OUTPUT_QUIET ERROR_QUIET)

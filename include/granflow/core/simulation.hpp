@@ -1,7 +1,11 @@
 #pragma once
 // The run driver: advances any Stepper to the end time, writes the output contract
-// (profiles.csv, fields.h5/.xdmf, checkpoint.h5, summary.json), shows a progress line, and stops
-// a diverging run with a diagnosis while keeping its last good output and checkpoint.
+// (profiles.csv, fields.h5/.xdmf, checkpoint.h5, summary.json, run.json), shows a progress line,
+// stops a diverging run with a diagnosis while keeping its last good output and checkpoint, and
+// ends an interrupted run (SIGINT, SIGTERM) after the step in progress with a checkpoint.
+// A run owns its directory (core/run_record.hpp): it refuses one that holds another scene's
+// files, replaces an earlier run of the same scene, and a restart cuts the outputs back to the
+// checkpoint time.
 #include "granflow/core/stepper.hpp"
 
 #include <Teuchos_ParameterList.hpp>
@@ -10,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace granflow::core {
 
@@ -25,6 +30,7 @@ struct RunControl {
   bool checkpoint = true;
   bool progress = true;
   std::string restart_from;
+  bool overwrite = false;  ///< command line --overwrite: replace another scene's files
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidTimeParameters();
   static Teuchos::RCP<const Teuchos::ParameterList> getValidOutputParameters();
@@ -40,8 +46,22 @@ enum ExitCode : int {
   kInputError = 2,
   kDiverged = 3,
   kRuntimeError = 4,
-  kStepLimit = 5
+  kStepLimit = 5,
+  /// Interrupted by a signal: 128 + the signal number (130 SIGINT, 143 SIGTERM), the shell's
+  /// convention for "ended by signal N", so that scripts and schedulers see an interruption;
+  /// summary.json (status "interrupted") and checkpoint.h5 tell it from a kill.
+  kInterruptedBase = 128
 };
+
+/// Record SIGINT and SIGTERM from now on (the application calls it before building the model,
+/// which can take long): Simulation::run() then stops before its first step with a checkpoint
+/// of the initial (or restart) state. A second signal takes the default action.
+void catch_interrupts();
+
+/// Checks done before anything is built or written, also by `granflow --check`: a restart's
+/// checkpoint is readable, intact, of this scene and before the end time; the run directory may
+/// be written (it holds no other scene's files, or rc.overwrite). Throws params::InputError.
+void preflight(const Teuchos::ParameterList& validated, const RunControl& rc);
 
 class Simulation {
  public:
@@ -50,11 +70,20 @@ class Simulation {
   /// Run to the end time; returns an ExitCode. summary.json is written in every case.
   int run();
   const Stepper& model() const { return *model_; }
+  /// Build provenance for summary.json (version, commit, build type, compiler, Trilinos),
+  /// given by the application, which is the only target that compiles the generated file.
+  void set_build_info(std::map<std::string, std::string> info) { build_info_ = std::move(info); }
+  /// The scene's memory estimate of the ranks on this node [B] (scene/memory.hpp), reported in
+  /// summary.json beside the measured peak.
+  void set_memory_estimate(double bytes) { memory_estimate_ = bytes; }
 
  private:
+  int advance(const io::Checkpoint& restart);
   void write_output();
-  void write_summary(const std::string& status, const std::string& reason, int code) const;
-  void show_progress(bool final);
+  void write_checkpoint();
+  int interrupted(int signal);
+  void write_summary(const std::string& status, const std::string& reason, int code);
+  void show_progress(bool final, bool at_output);
 
   std::string scene_name_;
   const Teuchos::ParameterList& params_;
@@ -66,6 +95,16 @@ class Simulation {
   int outputs_ = 0;
   double last_output_t_ = 0.0;
   double last_dt_ = 0.0;
+  long last_progress_step_ = -1;
+  double origin_ = 0.0;   ///< time of the scene's start; outputs at origin + k Interval
+  long next_index_ = 1;   ///< k of the next output time
+  bool restarted_ = false;
+  double restart_time_ = 0.0;
+  std::vector<std::string> canonical_;  ///< validated parameters (run_record.hpp)
+  std::string identity_;
+  std::vector<std::string> files_;      ///< files this run (and its earlier parts) wrote
+  std::map<std::string, std::string> build_info_;
+  double memory_estimate_ = 0.0;
   struct Io;
   std::shared_ptr<Io> io_;
 };

@@ -29,11 +29,20 @@ class FieldWriter {
   std::vector<Mesh> meshes_;
 };
 
-/// Named scalars and arrays that restore a run exactly.
+/// Named scalars and arrays that restore a run exactly, and texts that record what wrote them
+/// (the run driver stores the validated scene there; see core/run_record.hpp).
 class Checkpoint {
  public:
   void set(const std::string& key, double v) { scalars_[key] = v; }
   void set(const std::string& key, std::vector<double> v) { arrays_[key] = std::move(v); }
+  void set_text(const std::string& key, std::string v) { texts_[key] = std::move(v); }
+  bool has_scalar(const std::string& key) const { return scalars_.count(key) != 0; }
+  bool has_text(const std::string& key) const { return texts_.count(key) != 0; }
+  const std::string& text(const std::string& key) const {
+    auto it = texts_.find(key);
+    if (it == texts_.end()) throw std::runtime_error("checkpoint has no entry '" + key + "'");
+    return it->second;
+  }
   double scalar(const std::string& key) const {
     auto it = scalars_.find(key);
     if (it == scalars_.end()) throw std::runtime_error("checkpoint has no entry '" + key + "'");
@@ -46,10 +55,12 @@ class Checkpoint {
   }
   const std::map<std::string, double>& scalars() const { return scalars_; }
   const std::map<std::string, std::vector<double>>& arrays() const { return arrays_; }
+  const std::map<std::string, std::string>& texts() const { return texts_; }
 
  private:
   std::map<std::string, double> scalars_;
   std::map<std::string, std::vector<double>> arrays_;
+  std::map<std::string, std::string> texts_;
 };
 
 }  // namespace granflow::io

@@ -4,22 +4,36 @@
 //   fields.h5      one group per snapshot, cell fields on rectilinear meshes
 //   fields.xdmf    temporal collection over fields.h5 that ParaView opens; rewritten after each
 //                  snapshot so that a run that stops early leaves a readable file
-//   checkpoint.h5  the last good state (written atomically: temporary file, then rename)
-//   summary.json   written by the run driver
+//   checkpoint.h5  the last good state (written atomically: temporary file, then rename), with
+//                  texts (the validated scene) and a checksum of everything in it
+//   summary.json, run.json   written by the run driver
+// HDF5's own error printing is switched off: every failure becomes an exception whose message
+// says which file and what HDF5 reported, and the caller decides what the user sees.
 #include "granflow/core/stepper.hpp"
 #include "granflow/io/fields.hpp"
 
+#include <cstdint>
 #include <fstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace granflow::io {
 
+/// A checkpoint that cannot be used: not readable as HDF5 (truncated, not a checkpoint), written
+/// by a granflow without the scene record, or with data that do not match its checksum.
+class CheckpointError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 class ProfileWriter {
  public:
   ProfileWriter() = default;
-  /// Opens (truncates, or appends when `append`) `dir`/profiles.csv.
-  void open(const std::string& dir, bool append);
+  /// Opens `dir`/profiles.csv: a new file, or (`keep_until` finite, a restart) the existing one
+  /// cut after its last row with t <= keep_until (+ round-off), so that a restart from a
+  /// checkpoint at keep_until never repeats the rows of later output times.
+  void open(const std::string& dir, double keep_until = -1.0);
   void write(double t, const core::Profile& p);
 
  private:
@@ -29,8 +43,9 @@ class ProfileWriter {
 class Hdf5FieldOutput {
  public:
   Hdf5FieldOutput() = default;
-  /// `append`: keep the snapshots already in `dir`/fields.h5 (restart).
-  void open(const std::string& dir, bool append);
+  /// Opens `dir`/fields.h5: a new file, or (`keep_until` >= 0, a restart) the existing one with
+  /// the snapshots after keep_until (+ round-off) removed, and the XDMF index rewritten to match.
+  void open(const std::string& dir, double keep_until = -1.0);
   void write(double t, const FieldWriter& fields);
   int snapshots() const { return static_cast<int>(times_.size()); }
 
@@ -38,10 +53,24 @@ class Hdf5FieldOutput {
   void write_xdmf() const;
   std::string dir_;
   std::vector<double> times_;
+  std::vector<std::string> names_;                       // group of each snapshot
   std::vector<std::vector<FieldWriter::Mesh>> layouts_;  // meshes of each snapshot
+  std::size_t next_index_ = 0;                           // step_NNNNNN of the next snapshot
 };
 
+/// Writes `file` atomically (file.tmp, then rename) with a checksum over every entry.
 void write_checkpoint(const std::string& file, const Checkpoint& c);
+/// Reads and verifies a checkpoint; throws CheckpointError with a message for the user when the
+/// file is unreadable, has no checksum (older format) or its data do not match the checksum.
 Checkpoint read_checkpoint(const std::string& file);
+/// FNV-1a (64 bit) over the keys and the bytes of the values of all entries: detects truncation
+/// and flipped bytes; not a cryptographic hash.
+std::uint64_t checksum(const Checkpoint& c);
+
+/// Cut `dir`/fields.h5 and fields.xdmf (when they exist) back to the snapshots at t <= t_keep.
+void truncate_fields(const std::string& dir, double t_keep);
+
+/// "major.minor.release" of the HDF5 library linked in (for summary.json).
+std::string hdf5_version();
 
 }  // namespace granflow::io
