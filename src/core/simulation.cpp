@@ -265,12 +265,31 @@ void Simulation::write_checkpoint() {
   model_->restart_point();  // a restart from here and the run itself continue alike
 }
 
+std::vector<LayoutPiece> Stepper::layout_pieces() const {
+  const auto p = profile();
+  if (p.x.size() < 2) return {};
+  const double half = 0.5 * (p.x[1] - p.x[0]);  // cell centres -> channel ends
+  return {{p.model.front(), p.x.front() - half, p.x.back() + half}};
+}
+
 void Simulation::write_output() {
   const auto t1 = Clock::now();
   const double t = model_->time();
   {
     const auto profile = model_->profile();
     if (io_rank()) io_->profiles.write(t, profile);
+  }
+  // the layout at this output (a dynamic layout changes it between outputs)
+  {
+    auto pieces = model_->layout_pieces();
+    auto same = [](const std::vector<LayoutPiece>& a, const std::vector<LayoutPiece>& b) {
+      if (a.size() != b.size()) return false;
+      for (std::size_t i = 0; i < a.size(); ++i)
+        if (a[i].model != b[i].model || a[i].x0 != b[i].x0 || a[i].x1 != b[i].x1) return false;
+      return true;
+    };
+    if (layouts_.empty() || !same(layouts_.back().second, pieces))
+      layouts_.emplace_back(t, std::move(pieces));
   }
   if (rc_.fields) {
     io::FieldWriter w;
@@ -328,23 +347,20 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   nlohmann::json stats = nlohmann::json::object();
   model_->report(stats);
   s["solver_statistics"] = stats;
-  // Layout of the models along the channel (static interfaces: the same at every time). A
-  // coupled model reports its subdomains; a single model covers the channel.
-  nlohmann::json subdomains = nlohmann::json::array();
-  if (stats.contains("coupled")) {
-    for (const auto& p : stats["coupled"]["subdomains"])
-      subdomains.push_back({{"model", p["model"]}, {"x0", p["x0"]}, {"x1", p["x1"]}});
-  } else {
-    const auto p = model_->profile();
-    if (p.x.size() > 1) {  // cell centres -> channel ends
-      const double half = 0.5 * (p.x[1] - p.x[0]);
-      subdomains.push_back(
-          {{"model", p.model.front()}, {"x0", p.x.front() - half}, {"x1", p.x.back() + half}});
-    }
-  }
+  // Layout of the models along the channel at every output where it changed (a static one:
+  // one entry), and the domain manager's moves between outputs (summary of its log).
+  long long moves = 0;
+  if (stats.contains("coupled") && stats["coupled"].contains("domain_manager"))
+    moves = stats["coupled"]["domain_manager"]["moves"].get<long long>();
+  auto entries = layouts_;
+  if (entries.empty()) entries.emplace_back(model_->time(), model_->layout_pieces());
   nlohmann::json layout = nlohmann::json::array();
-  layout.push_back({{"t", t0_}, {"subdomains", subdomains}});
-  s["interfaces"] = {{"positions_over_time", layout}, {"moves", 0}};
+  for (const auto& [t, pieces] : entries) {
+    nlohmann::json sub = nlohmann::json::array();
+    for (const auto& p : pieces) sub.push_back({{"model", p.model}, {"x0", p.x0}, {"x1", p.x1}});
+    layout.push_back({{"t", t}, {"subdomains", sub}});
+  }
+  s["interfaces"] = {{"positions_over_time", layout}, {"moves", moves}};
   s["outputs"] = {{"snapshots", outputs_}, {"directory", rc_.directory}, {"files", files_}};
   if (!io_rank()) return;
   // Serialise before the file is opened, and replace bytes that are not UTF-8 instead of

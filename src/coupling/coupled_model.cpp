@@ -283,6 +283,12 @@ void CoupledModel::accept() {
   ++steps_;
 }
 
+std::vector<core::LayoutPiece> CoupledModel::layout_pieces() const {
+  std::vector<core::LayoutPiece> out;
+  for (const auto& p : parts_) out.push_back({p.kind, p.x0, p.x1});
+  return out;
+}
+
 core::Profile CoupledModel::profile() const {
   core::Profile out;
   for (const auto& p : parts_) {

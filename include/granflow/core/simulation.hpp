@@ -14,6 +14,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace granflow::core {
@@ -93,6 +94,8 @@ class Simulation {
   std::chrono::steady_clock::time_point wall0_, last_progress_;
   std::map<std::string, double> phase_seconds_;
   int outputs_ = 0;
+  /// the layout at each output where it changed (time, pieces)
+  std::vector<std::pair<double, std::vector<LayoutPiece>>> layouts_;
   double last_output_t_ = 0.0;
   double last_dt_ = 0.0;
   long last_progress_step_ = -1;

@@ -58,6 +58,12 @@ struct Health {
   std::string reason;    ///< e.g. "not finite", "negative depth"
 };
 
+/// One piece of a model's layout along the channel: which model runs [x0, x1].
+struct LayoutPiece {
+  std::string model;  ///< "1D" or "2D"
+  double x0 = 0.0, x1 = 0.0;
+};
+
 class Stepper {
  public:
   virtual ~Stepper() = default;
@@ -77,6 +83,9 @@ class Stepper {
   virtual bool adapt() { return false; }
 
   virtual Profile profile() const = 0;
+  /// The models along the channel now (one piece for a single model; the coupled model's
+  /// subdomains), for summary.json's interface positions over time.
+  virtual std::vector<LayoutPiece> layout_pieces() const;
   virtual MassBalance mass_balance() const = 0;
   /// Field snapshot (HDF5 + XDMF).
   virtual void write_fields(io::FieldWriter& w) const = 0;

@@ -81,6 +81,7 @@ class CoupledModel final : public core::Stepper {
   void accept() override;
   bool adapt() override;
   core::Profile profile() const override;
+  std::vector<core::LayoutPiece> layout_pieces() const override;
   core::MassBalance mass_balance() const override;
   void write_fields(io::FieldWriter& w) const override;
   void save(io::Checkpoint& c) const override;
