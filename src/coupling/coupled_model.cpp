@@ -313,8 +313,9 @@ core::MassBalance CoupledModel::mass_balance() const {
 // One channel-wide mesh per kind, whatever the layout, so that a field series stays one
 // series in ParaView while the interfaces move: "dam", the depth-averaged state h, u_mean, hu
 // and the model (1 or 2) of every DAM-sized cell of [0, L] (from the 1D cells and the 2D
-// columns alike); "ndam", the 2D fields on the channel-wide 2D grid, with flag -1 (and zero
-// fields) in the columns that are 1D at this output.
+// columns alike), a strip under the bed (z in [-0.01, 0]); "ndam", the 2D fields on the
+// channel-wide 2D grid, with flag -1 (and zero fields) in the columns that are 1D at this
+// output.
 void CoupledModel::write_fields(io::FieldWriter& w) const {
   const double L = parts_.back().x1;
   const ChannelField f = channel_field(parts_, 0, parts_.size());
@@ -333,7 +334,8 @@ void CoupledModel::write_fields(io::FieldWriter& w) const {
     while (p + 1 < parts_.size() && xc > parts_[p].x1) ++p;
     model.push_back(parts_[p].one_d() ? 1.0 : 2.0);
   }
-  auto& m1 = w.add_mesh("dam", std::move(xn), {0.0, 1.0});
+  // drawn as a strip 1 cm deep under the bed, so that ParaView shows it beside the 2D box
+  auto& m1 = w.add_mesh("dam", std::move(xn), {-0.01, 0.0});
   m1.cell_fields.emplace_back("h", h);
   m1.cell_fields.emplace_back("u", u);
   m1.cell_fields.emplace_back("hu", hu);

@@ -107,10 +107,14 @@ struct H5Handle {
   H5Handle(H5Handle&& o) noexcept : id(o.id), close(o.close) { o.id = -1; }
 };
 
+// rows x cols values; a single row is a 1-D dataset unless `matrix` (cell fields keep the
+// shape of their mesh's cells, nz x nx, so that the XDMF's declared shape is the dataset's and
+// ParaView maps one value to each cell also for the 1D models' one-row strip).
 void write_dataset(hid_t loc, const std::string& name, const std::vector<double>& v,
-                   hsize_t rows, hsize_t cols) {
+                   hsize_t rows, hsize_t cols, bool matrix = false) {
   hsize_t dims[2] = {rows, cols};
-  H5Handle space(H5Screate_simple(rows > 1 ? 2 : 1, rows > 1 ? dims : dims + 1, nullptr),
+  const bool two = rows > 1 || matrix;
+  H5Handle space(H5Screate_simple(two ? 2 : 1, two ? dims : dims + 1, nullptr),
                  H5Sclose, "dataspace for " + name);
   H5Handle ds(H5Dcreate2(loc, name.c_str(), H5T_IEEE_F64LE, space.id, H5P_DEFAULT, H5P_DEFAULT,
                          H5P_DEFAULT),
@@ -302,7 +306,7 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
       FieldWriter::Mesh lm{m.name, m.x_nodes, m.z_nodes, {}};
       for (const auto& [name, v] : m.cell_fields) {
         if (v.size() != nx * nz) throw std::logic_error("field " + name + " has the wrong size");
-        write_dataset(mg.id, name, v, nz, nx);
+        write_dataset(mg.id, name, v, nz, nx, true);
         lm.cell_fields.emplace_back(name, std::vector<double>{});
       }
       layout.push_back(std::move(lm));
@@ -330,11 +334,10 @@ void Hdf5FieldOutput::write_xdmf() const {
       for (const auto& m : layouts_[s]) {
         const std::size_t nx = m.x_nodes.size(), nz = m.z_nodes.size();
         const std::string base = "fields.h5:/" + sname + "/" + m.name + "/";
-        // The cell fields' declared shape is the dataset's: write_dataset stores a mesh with one
-        // row of cells (the 1D models' strip) as a 1-D dataset of nx - 1 values.
+        // The cell fields' declared shape is the dataset's, nz - 1 x nx - 1 (also 1 x nx - 1 for
+        // the 1D models' one-row strip: ParaView's XDMF reader needs the cells' shape there).
         std::ostringstream cells;
-        if (nz - 1 > 1) cells << nz - 1 << " ";
-        cells << nx - 1;
+        cells << nz - 1 << " " << nx - 1;
         x << "    <Grid Name=\"" << m.name << "\" GridType=\"Uniform\">\n"
           << "     <Topology TopologyType=\"2DRectMesh\" Dimensions=\"" << nz << " " << nx
           << "\"/>\n"
