@@ -84,6 +84,10 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
              "Dynamic layout: a shock on the 1D side (u_mean drops across a column by more "
              "than the wave speed sqrt(beta h), to less than half its upstream value) counts as "
              "2D whatever its eps (false: eps and rest alone decide)");
+    add_bool(*pl, "Sub-cycling", d.subcycling,
+             "the 1D subdomains take their own stable steps inside the common step of the 2D "
+             "ones (false: one common step for all, the smallest stable step of any subdomain); "
+             "the 1D-to-2D interface still passes exactly the DAM's mass of the whole step");
     add_enum(*pl, "Interface pressure", d.interface_pressure,
              "how the pressure of eq. (26), p = g cos(zeta)(h - z)(1 + K_act)/2, enters the first "
              "2D column behind a 1D-to-2D interface: Rheology: the column stays in the "
@@ -124,6 +128,7 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   d.check_interval = pl.get<double>("Check interval");
   d.rest_speed = pl.get<double>("Rest speed");
   d.shock_indicator = pl.get<bool>("Shock indicator");
+  d.subcycling = pl.get<bool>("Sub-cycling");
   if (d.layout == "Dynamic" && !(d.eps_lower < d.eps_threshold))
     params::fail(pl, "Lower threshold", params::str(d.eps_lower),
                  "must be below 'Shallowness threshold' = " + params::str(d.eps_threshold) +
@@ -254,10 +259,16 @@ void CoupledModel::set_domain_manager(std::unique_ptr<DomainManager> m) { manage
 
 bool CoupledModel::adapt() { return manager_ && manager_->adapt(*this); }
 
+// The common step. With sub-cycling it is the 2D parts' (their CFL condition with the flow
+// speed), and each DAM takes steps of its own inside it (its CFL condition holds the gravity-wave
+// speed sqrt(beta h) as well, which made the coupled run take 18-40 % more steps than full 2D),
+// up to kMaxSubsteps of them; without 2D parts, or without sub-cycling, it is every part's.
 double CoupledModel::stable_dt() const {
-  double dt = std::numeric_limits<double>::infinity();
-  for (const auto& p : parts_) dt = std::min(dt, p.model->stable_dt());
-  return dt;
+  double dt2 = std::numeric_limits<double>::infinity(), dt1 = dt2;
+  for (const auto& p : parts_) (p.one_d() ? dt1 : dt2) = std::min(p.one_d() ? dt1 : dt2,
+                                                                 p.model->stable_dt());
+  if (!subcycling_ || !std::isfinite(dt2)) return std::min(dt1, dt2);
+  return std::min(dt2, kMaxSubsteps * dt1);
 }
 
 void CoupledModel::step(double dt) {

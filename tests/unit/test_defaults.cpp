@@ -206,4 +206,11 @@ TEST(Defaults, DecompositionIsItsStruct) {
   EXPECT_EQ(r.margin, d.margin);
   EXPECT_EQ(r.min_length, d.min_length);
   EXPECT_EQ(r.interface_pressure, d.interface_pressure);
+  EXPECT_EQ(r.initial_layout, d.initial_layout);
+  EXPECT_EQ(r.eps_lower, d.eps_lower);
+  EXPECT_EQ(r.hold_time, d.hold_time);
+  EXPECT_EQ(r.check_interval, d.check_interval);
+  EXPECT_EQ(r.rest_speed, d.rest_speed);
+  EXPECT_EQ(r.shock_indicator, d.shock_indicator);
+  EXPECT_EQ(r.subcycling, d.subcycling);
 }
