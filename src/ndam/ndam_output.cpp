@@ -202,8 +202,8 @@ void NdamSolver::import_state(const NdamState& s) {
   const int G = Field::G, nxl = mac_.slab.nx_local;
   const bool factors = s.bed_factor.size() == static_cast<std::size_t>(cfg_.grid.nx + 2 * G) &&
                        s.wall_factor.size() == static_cast<std::size_t>(cfg_.grid.nz);
-  if (factors) {
-    // the factors the straight run's next step reads: the lagged ones of its last step
+  // the factors the straight run's next step reads: the lagged ones of its last step
+  auto restore_factors = [&] {
     for (int i = -G; i < nxl + G; ++i) {
       const int gi = mac_.slab.i0 + i;
       if (gi >= -G && gi < cfg_.grid.nx + G)
@@ -211,7 +211,8 @@ void NdamSolver::import_state(const NdamState& s) {
     }
     exchange_bed_factors();
     wall_a_ = s.wall_factor;
-  }
+  };
+  if (factors) restore_factors();
   fill_velocity_ghosts(u_, w_);
   fill_scalar_ghosts(p_);
   if (!factors) {
@@ -220,15 +221,7 @@ void NdamSolver::import_state(const NdamState& s) {
     fill_velocity_ghosts(u_, w_);
   }
   update_viscosity(p_);
-  if (factors) {  // update_viscosity also set the factors: the lagged ones are what step() reads
-    for (int i = -G; i < nxl + G; ++i) {
-      const int gi = mac_.slab.i0 + i;
-      if (gi >= -G && gi < cfg_.grid.nx + G)
-        bed_a_[static_cast<std::size_t>(i + G)] = s.bed_factor[static_cast<std::size_t>(gi + G)];
-    }
-    exchange_bed_factors();
-    wall_a_ = s.wall_factor;
-  }
+  if (factors) restore_factors();  // update_viscosity set them anew: step() reads the lagged ones
   if (markers_) update_profile_cache();
   u_new_ = u_;
   w_new_ = w_;
