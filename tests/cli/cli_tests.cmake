@@ -208,3 +208,16 @@ endif()
 granflow_cli_test(help_with_extra_argument 1 "--help takes no other argument" --help --check)
 granflow_cli_test(help_with_unknown_option 1 "unknown option '--bogus'" --help --bogus)
 granflow_cli_test(parameters_with_extra_argument 1 "--parameters takes no other argument" --parameters extra)
+
+# Error against run time (issue 12 item 5): the quick matrix of scripts/pareto.py is produced and
+# agrees with its runs' summary.json; the full matrices are long runs (label `long`; they resume
+# from the runs already made in their directory).
+add_test(NAME cli.pareto_quick
+         COMMAND /usr/bin/python3 ${_cli}/pareto_quick.py ${CMAKE_BINARY_DIR} ${CMAKE_CURRENT_BINARY_DIR}/pareto_quick)
+set_tests_properties(cli.pareto_quick PROPERTIES LABELS "cli" TIMEOUT 900)
+foreach(_family setup2 setup1 lab_chute)
+  add_test(NAME long.pareto_${_family}
+           COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/scripts/pareto.py ${CMAKE_BINARY_DIR}
+                   ${CMAKE_BINARY_DIR}/pareto_${_family} --family ${_family})
+  set_tests_properties(long.pareto_${_family} PROPERTIES LABELS "long" TIMEOUT 86400)
+endforeach()
