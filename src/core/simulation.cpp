@@ -540,8 +540,11 @@ int Simulation::advance(const io::Checkpoint& ck) {
       return kDiverged;
     }
     // Land exactly on the next output or end time; split the last two steps before it evenly
-    // rather than leaving a sliver step.
-    const double to_target = std::min(next_output, rc_.end_time) - t;
+    // rather than leaving a sliver step. An end time that is an output time (to round-off: 0.6
+    // against 6 x 0.1) is that output time, so that a run that ends there and one that goes on
+    // take the same steps to it (a restart from the first then continues the second bit for bit).
+    const double end = std::abs(rc_.end_time - next_output) <= eps_t ? next_output : rc_.end_time;
+    const double to_target = std::min(next_output, end) - t;
     double dt = std::min({stable, rc_.max_dt});
     if (to_target <= dt) dt = to_target;
     else if (to_target < 1.5 * dt) dt = 0.5 * to_target;

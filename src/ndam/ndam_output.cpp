@@ -155,6 +155,7 @@ NdamState NdamSolver::export_state() const {
               mac_.slab.ranks - 1, comm_);
     s.momentum_dt = momentum_dt_;
   }
+  s.surface_applied = true;
   return s;
 }
 
@@ -213,7 +214,7 @@ void NdamSolver::import_state(const NdamState& s) {
     wall_a_ = s.wall_factor;
   };
   if (factors) restore_factors();
-  fill_velocity_ghosts(u_, w_);
+  fill_velocity_ghosts(u_, w_, !s.surface_applied);
   fill_scalar_ghosts(p_);
   if (!factors) {
     // a state without them (a box rebuilt from converted columns): from the state itself
@@ -261,6 +262,7 @@ void NdamSolver::save(io::Checkpoint& c) const {
   c.set("ndam/bed_factor", s.bed_factor);
   c.set("ndam/wall_factor", s.wall_factor);
   c.set("ndam/momentum_dt", s.momentum_dt);
+  c.set("ndam/surface_applied", s.surface_applied ? 1.0 : 0.0);
 }
 
 void NdamSolver::load(const io::Checkpoint& c) {
@@ -300,6 +302,8 @@ void NdamSolver::load(const io::Checkpoint& c) {
     s.wall_factor = c.array("ndam/wall_factor");
     s.momentum_dt = c.scalar("ndam/momentum_dt");
   }
+  s.surface_applied = c.scalars().count("ndam/surface_applied") &&
+                      c.scalar("ndam/surface_applied") != 0.0;
   import_state(s);
 }
 

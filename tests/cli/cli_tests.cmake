@@ -221,3 +221,13 @@ foreach(_family setup2 setup1 lab_chute)
                    ${CMAKE_BINARY_DIR}/pareto_${_family} --family ${_family})
   set_tests_properties(long.pareto_${_family} PROPERTIES LABELS "long" TIMEOUT 86400)
 endforeach()
+
+# Restarts through the app continue bit for bit for the 2D, coupled and dynamic models (the DAM's
+# is cli.restart_reproduces_straight_run).
+add_test(NAME cli.restart_exact_2d_coupled_dynamic
+         COMMAND /usr/bin/python3 ${_cli}/restart_exact.py $<TARGET_FILE:granflow>
+                 ${CMAKE_CURRENT_BINARY_DIR}/restart_exact
+                 ${PROJECT_SOURCE_DIR}/inputs/setup2_ndam.xml
+                 ${PROJECT_SOURCE_DIR}/inputs/setup2_coupled.xml
+                 ${PROJECT_SOURCE_DIR}/inputs/setup2_dynamic.xml)
+set_tests_properties(cli.restart_exact_2d_coupled_dynamic PROPERTIES LABELS "cli" TIMEOUT 600)

@@ -172,7 +172,7 @@ class NdamSolver final : public core::Stepper {
   Ref u_ref(int i, int k) const;
   Ref w_ref(int i, int k) const;
   Ref ref(Comp c, int i, int k) const;
-  void fill_velocity_ghosts(Field& u, Field& w) const;
+  void fill_velocity_ghosts(Field& u, Field& w, bool surface_rules = true) const;
   void boundary_faces(Field& u, Field& w) const;
   void fill_scalar_ghosts(Field& s) const;
   void update_friction(const Field& p_yield);
