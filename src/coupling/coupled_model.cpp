@@ -477,6 +477,20 @@ void CoupledModel::load(const io::Checkpoint& c) {
   }
 }
 
+bool CoupledModel::end_wall() const {
+  const auto& last = parts_.back();
+  if (last.ndam) return last.ndam->end_wall();
+  return factory_ && factory_->channel().right.type == core::BoundaryType::Wall;
+}
+
+std::optional<core::WallLoad> CoupledModel::wall_load() const {
+  // The part at the wall is looked up at every call: the domain manager replaces parts, and the
+  // run driver keeps the series (wall.csv) across such rebuilds.
+  const auto& last = parts_.back();
+  if (!last.ndam) return std::nullopt;  // a DAM does not resolve the wall's pressure field
+  return last.ndam->wall_load();
+}
+
 void CoupledModel::report(nlohmann::json& s) const {
   nlohmann::json parts = nlohmann::json::array(), ifaces = nlohmann::json::array();
   for (const auto& p : parts_) {

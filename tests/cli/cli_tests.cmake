@@ -76,6 +76,8 @@ granflow_record_test(interrupt_writes_checkpoint_and_summary interrupt.sh)
 granflow_record_test(interrupt_np2_all_ranks_stop interrupt.sh NP=2)
 set_tests_properties(cli.interrupt_np2_all_ranks_stop PROPERTIES LABELS "cli;mpi" PROCESSORS 2)
 granflow_record_test(memory_estimate memory.sh)
+# The wall load (issue 11 item 5): wall.csv every step, summary, restart cut, dynamic layout.
+granflow_record_test(wall_load_series wall_load.sh)
 
 # coupled model: decomposition checks
 # a 2D subdomain with the default (closed-box, no free surface) N-DAM cannot take the gate inflow

@@ -93,6 +93,7 @@ TEST(Defaults, RunControlIsItsStruct) {
   EXPECT_EQ(r.checkpoint, d.checkpoint);
   EXPECT_EQ(r.progress, d.progress);
   EXPECT_EQ(r.restart_from, d.restart_from);
+  EXPECT_EQ(r.impact_window, d.impact_window);
 }
 
 TEST(Defaults, DamConfigIsItsStruct) {

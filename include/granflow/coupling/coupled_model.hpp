@@ -91,6 +91,11 @@ class CoupledModel final : public core::Stepper {
   void load(const io::Checkpoint& c) override;
   void restart_point() override;
   void report(nlohmann::json& stats) const override;
+  /// The channel ends at a wall (the last part's, or the scene's channel when that part is 1D).
+  bool end_wall() const override;
+  /// The load on the end wall from the last part when it is 2D (the part at the wall, whatever
+  /// its extent after a rebuild by the domain manager); empty while that part is 1D.
+  std::optional<core::WallLoad> wall_load() const override;
 
   const std::vector<Subdomain>& parts() const { return parts_; }
   const Interface& interface(std::size_t i) const { return *interfaces_[i]; }
