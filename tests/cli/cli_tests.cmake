@@ -76,6 +76,8 @@ granflow_record_test(interrupt_writes_checkpoint_and_summary interrupt.sh)
 granflow_record_test(interrupt_np2_all_ranks_stop interrupt.sh NP=2)
 set_tests_properties(cli.interrupt_np2_all_ranks_stop PROPERTIES LABELS "cli;mpi" PROCESSORS 2)
 granflow_record_test(memory_estimate memory.sh)
+# Memory against the steps: a steady run 10x longer keeps its peak (issue 14 item 5).
+granflow_record_test(memory_steady_run memory_steady.sh)
 # The wall load (issue 11 item 5): wall.csv every step, summary, restart cut, dynamic layout.
 granflow_record_test(wall_load_series wall_load.sh)
 
