@@ -213,6 +213,12 @@ granflow_cli_test(help_with_extra_argument 1 "--help takes no other argument" --
 granflow_cli_test(help_with_unknown_option 1 "unknown option '--bogus'" --help --bogus)
 granflow_cli_test(parameters_with_extra_argument 1 "--parameters takes no other argument" --parameters extra)
 
+# The speed benchmark's report (issue 14 item 6) on its quick matrix: what it prints is what the
+# runs measured (not a timing test: only consistency, see benchmark_quick.py).
+add_test(NAME cli.benchmark_quick
+         COMMAND /usr/bin/python3 ${_cli}/benchmark_quick.py ${CMAKE_BINARY_DIR} ${CMAKE_CURRENT_BINARY_DIR}/benchmark_quick)
+set_tests_properties(cli.benchmark_quick PROPERTIES LABELS "cli" TIMEOUT 300)
+
 # Error against run time (issue 12 item 5): the quick matrix of scripts/pareto.py is produced and
 # agrees with its runs' summary.json; the full matrices are long runs (label `long`; they resume
 # from the runs already made in their directory).
