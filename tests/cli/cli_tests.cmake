@@ -241,3 +241,9 @@ add_test(NAME cli.restart_exact_2d_coupled_dynamic
                  ${PROJECT_SOURCE_DIR}/inputs/setup2_coupled.xml
                  ${PROJECT_SOURCE_DIR}/inputs/setup2_dynamic.xml)
 set_tests_properties(cli.restart_exact_2d_coupled_dynamic PROPERTIES LABELS "cli" TIMEOUT 600)
+# ... and on two ranks, through the full 2D box's slab rebuilds (issue 14 item 4)
+add_test(NAME cli.restart_exact_2d_np2
+         COMMAND ${CMAKE_COMMAND} -E env NP=2 /usr/bin/python3 ${_cli}/restart_exact.py
+                 $<TARGET_FILE:granflow> ${CMAKE_CURRENT_BINARY_DIR}/restart_exact_np2
+                 ${PROJECT_SOURCE_DIR}/inputs/setup2_ndam.xml)
+set_tests_properties(cli.restart_exact_2d_np2 PROPERTIES LABELS "cli;mpi" PROCESSORS 2 TIMEOUT 600)
