@@ -27,8 +27,10 @@ using detail::seconds_since;
 namespace {
 constexpr long kBalanceInterval = 10;       // steps between two checks
 constexpr double kImbalanceTolerance = 1.1;  // rebuild when max load > 1.1 x the mean
-// An empty cell costs this share of a material cell's work (measured on Setup II at 2.6 mm:
-// the loops over all cells are 3-6 % of a step whose solves run on the material cells only).
+// An empty cell costs this share of a material cell's work: an estimate, not a measurement
+// (the solves and the markers, most of a step, run on the material cells only; the loops over
+// all cells are a small part of the 'other' phase). The imbalance of the material cells alone
+// that results is what summary.json reports.
 constexpr double kEmptyCellWork = 0.05;
 
 // max_r L_r / mean L of the split `starts` for the column work `w`
