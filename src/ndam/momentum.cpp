@@ -15,8 +15,20 @@
 #include "stencil.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace granflow::ndam {
+
+namespace {
+// Newton's method on the step's friction (Coulomb walls): the law holds when the factor each
+// face's solve applied is within kFrictionTolerance of the step's mean factor c_mean(u^n, u)
+// at the solution, in units of the Coulomb bound tan(delta) N (1e-4: far below the 1 % the
+// plug law is verified to, and reached in one or two extra solves from the tangent at u^n,
+// since Newton converges quadratically; measured counts in docs/numerics.md); at most
+// kFrictionMaxSolves solves per step, the last one's state is kept (counted in summary.json).
+constexpr double kFrictionTolerance = 1e-4;
+constexpr int kFrictionMaxSolves = 6;
+}  // namespace
 
 double NdamSolver::nu_corner(int i, int k) const {
   if (cfg_.free_surface) {
@@ -175,55 +187,82 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   // Implicit: (I/dt - V) u* = u^n/dt + forces. The matrix depends on nu_eff and dt only; with
   // a constant viscosity and an unchanged dt the assembled matrix and its preconditioner are
   // reused. The boundary constants of V go to the right-hand side in every step.
-  const bool rebuild = !rheo_.newtonian() || dt != momentum_dt_ || cfg_.free_surface ||
-                       cfg_.walls[1].kind == WallKind::Coulomb ||
-                       cfg_.walls[2].kind == WallKind::Coulomb;
+  const bool coulomb = coulomb_walls();
   const long long first = 2 * mac_.p_gid(mac_.slab.i0, 0);
   std::vector<double> rhs(static_cast<std::size_t>(2 * nxl * nz)), x(rhs.size());
-  if (rebuild) momentum_->begin();
-  for (int i = 0; i < nxl; ++i)
-    for (int k = 0; k < nz; ++k)
-      for (Comp c : {U, W}) {
-        const long long row = 2 * mac_.p_gid(mac_.slab.i0 + i, k) + c;
-        const auto lr = static_cast<std::size_t>(row - first);
-        const bool unknown = c == U ? mac_.u_unknown(i, k) : mac_.w_unknown(i, k);
-        if (!unknown) {  // wall-normal face: identity row, value 0
-          if (rebuild) momentum_->add(row, row, 1.0);
-          rhs[lr] = 0.0;
-          x[lr] = 0.0;
-          continue;
-        }
-        double b = c == U ? u_(i, k) / dt + force_u(i, k) : w_(i, k) / dt + force_w(i, k);
-        if (rebuild) momentum_->add(row, row, 1.0 / dt);
-        auto emit = [&](Comp cc, int ii, int kk, double coeff) {
-          const Ref r = ref(cc, ii, kk);
-          if (r.gid < 0) {  // a known value (boundary or free-surface face)
-            b += coeff * detail::value(r, cc == U ? u_ : w_);
-            return;
-          }
-          b += coeff * r.b;
-          if (r.a != 0.0 && rebuild) momentum_->add(row, r.gid, -coeff * r.a);
-        };
-        if (c == U) viscous_u(i, k, emit);
-        else viscous_w(i, k, emit);
-        rhs[lr] = b;
-        x[lr] = c == U ? u_(i, k) : w_(i, k);  // initial guess: u^n
-      }
-  if (rebuild) {
-    momentum_->end();
-    momentum_dt_ = dt;
-  }
-  mom_stats_ = momentum_->solve(rhs, x);
-  ++stats_.momentum_solves;
-  stats_.momentum_iterations += mom_stats_.iterations;
-  stats_.worst_momentum_residual = std::max(stats_.worst_momentum_residual, mom_stats_.residual);
-  if (!mom_stats_.converged) ++stats_.unconverged_solves;
   for (int i = 0; i < nxl; ++i)
     for (int k = 0; k < nz; ++k) {
       const auto lr = static_cast<std::size_t>(2 * mac_.p_gid(mac_.slab.i0 + i, k) - first);
-      if (mac_.u_unknown(i, k)) us(i, k) = x[lr];
-      if (mac_.w_unknown(i, k)) ws(i, k) = x[lr + 1];
+      x[lr] = u_(i, k);  // initial guess: u^n (wall-normal faces: 0)
+      x[lr + 1] = w_(i, k);
     }
+  // A Coulomb wall makes the step nonlinear in u* (the step's mean friction factor,
+  // update_friction): Newton's method, each iteration a solve with the friction linearised
+  // about the last solution (relinearise_friction), until the law holds to
+  // kFrictionTolerance of the Coulomb bound or after kFrictionMaxSolves solves. Each solve
+  // starts from the last one.
+  for (int solve = 1;; ++solve) {
+    const bool rebuild = !rheo_.newtonian() || dt != momentum_dt_ || cfg_.free_surface ||
+                         coulomb;
+    if (rebuild) momentum_->begin();
+    for (int i = 0; i < nxl; ++i)
+      for (int k = 0; k < nz; ++k)
+        for (Comp c : {U, W}) {
+          const long long row = 2 * mac_.p_gid(mac_.slab.i0 + i, k) + c;
+          const auto lr = static_cast<std::size_t>(row - first);
+          const bool unknown = c == U ? mac_.u_unknown(i, k) : mac_.w_unknown(i, k);
+          if (!unknown) {  // wall-normal face: identity row, value 0
+            if (rebuild) momentum_->add(row, row, 1.0);
+            rhs[lr] = 0.0;
+            x[lr] = 0.0;
+            continue;
+          }
+          double b = c == U ? u_(i, k) / dt + force_u(i, k) : w_(i, k) / dt + force_w(i, k);
+          if (rebuild) momentum_->add(row, row, 1.0 / dt);
+          auto emit = [&](Comp cc, int ii, int kk, double coeff) {
+            const Ref r = ref(cc, ii, kk);
+            if (r.gid < 0) {  // a known value (boundary or free-surface face)
+              b += coeff * detail::value(r, cc == U ? u_ : w_);
+              return;
+            }
+            b += coeff * r.b;
+            if (r.a != 0.0 && rebuild) momentum_->add(row, r.gid, -coeff * r.a);
+          };
+          if (c == U) viscous_u(i, k, emit);
+          else viscous_w(i, k, emit);
+          rhs[lr] = b;
+        }
+    if (rebuild) {
+      momentum_->end();
+      momentum_dt_ = dt;
+    }
+    mom_stats_ = momentum_->solve(rhs, x);
+    ++stats_.momentum_solves;
+    stats_.momentum_iterations += mom_stats_.iterations;
+    stats_.worst_momentum_residual = std::max(stats_.worst_momentum_residual, mom_stats_.residual);
+    if (!mom_stats_.converged) ++stats_.unconverged_solves;
+    for (int i = 0; i < nxl; ++i)
+      for (int k = 0; k < nz; ++k) {
+        const auto lr = static_cast<std::size_t>(2 * mac_.p_gid(mac_.slab.i0 + i, k) - first);
+        if (mac_.u_unknown(i, k)) us(i, k) = x[lr];
+        if (mac_.w_unknown(i, k)) ws(i, k) = x[lr + 1];
+      }
+    if (!coulomb) break;
+    fill_velocity_ghosts(us, ws);
+    // the last allowed solve keeps its factors (the ghosts above are those of the solve)
+    const double r = relinearise_friction(
+        us, ws, solve >= kFrictionMaxSolves ? std::numeric_limits<double>::infinity()
+                                            : kFrictionTolerance);
+    if (r <= kFrictionTolerance || solve >= kFrictionMaxSolves) {
+      stats_.friction_solves += solve - 1;
+      stats_.friction_max_solves = std::max(stats_.friction_max_solves, solve);
+      if (r > kFrictionTolerance) {
+        ++stats_.friction_unconverged;
+        stats_.friction_worst_residual = std::max(stats_.friction_worst_residual, r);
+      }
+      break;
+    }
+  }
   fill_velocity_ghosts(us, ws);
 }
 

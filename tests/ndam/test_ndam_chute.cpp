@@ -64,32 +64,102 @@ TEST(NdamFreeSurface, PoolAtRestStaysFlat) {
   EXPECT_NEAR(p_bottom, expect, 0.01 * expect);
 }
 
-// A Drucker-Prager layer (phi = 33 deg) on a periodic incline (zeta = 50 deg) with Coulomb
-// sliding (delta = 22 deg): sin(phi) > tan(delta), so the basal friction yields before the
-// material does and the layer slides as a rigid plug with a = g cos(zeta) (tan zeta - tan delta)
-// (DESIGN.md section 7). Measured once the base speed is well above 1/m_c = 0.01 m/s (c_F within
-// e^-30 of tan delta): the mean acceleration over [0.2, 0.3] s within 1 %, and the interior
-// shear u_top - u_bottom small against the sliding speed.
-TEST(NdamCoulomb, PeriodicInclineSlidesAsRigidPlug) {
-  FsCase c;
-  auto s = make_fs(c);
-  run_to(*s, 0.2, 0.002);
-  const double u1 = layer_mean_u(*s), t1 = s->time();
-  run_to(*s, 0.3, 0.002);
-  const double u2 = layer_mean_u(*s), t2 = s->time();
-  const double zeta = core::deg2rad(50.0), delta = core::deg2rad(22.0);
-  const double a = 9.81 * std::cos(zeta) * (std::tan(zeta) - std::tan(delta));
-  const double am = (u2 - u1) / (t2 - t1);
-  std::printf("plug: a = %.5f m/s^2, expected %.5f, rel. error %.2e, u_mean = %.4f m/s\n", am, a,
-              std::abs(am - a) / a, u2);
-  EXPECT_NEAR(am, a, 0.01 * a);
-  // interior shear: u of the bottom and top material faces of a column
-  const auto u = s->gather_u();
-  const int top = static_cast<int>(c.depth / (c.lz / c.nz)) - 2;  // last full Fluid row
-  const double ub = u[static_cast<std::size_t>(5 * c.nz + 0)];
-  const double ut = u[static_cast<std::size_t>(5 * c.nz + top)];
-  std::printf("plug: u_bottom = %.5f, u_top = %.5f\n", ub, ut);
-  EXPECT_LT(std::abs(ut - ub), 0.01 * ub);
+// A Drucker-Prager layer released from rest on a periodic incline with a Coulomb bed (issue 11
+// item 1): with sin(phi) > tan(delta) the basal friction yields before the material does, and
+// the layer slides as a rigid plug following the law of the model's own regularised friction
+// (12), u' = g sin(zeta) - g cos(zeta) tan(delta) (1 - exp(-m_c u)) from u(0) = 0 (plug_law;
+// a t plus ln(1 + tan(delta) / (tan(zeta) - tan(delta))) / m_c = 8.1 mm/s for 40/25 deg). The
+// issue's layer (3 cm, dz = 2.5 mm, free surface) with dx = 5 mm (the plug is uniform in x: the
+// issue's 1.25 mm gives the same u(t) to 1e-4, measured; NdamPlugLong runs it), three angle
+// sets: the issue's 40/25/35 and 30/20/30 and one near the plug limit, 40/30/35.5 (sin(phi) =
+// 0.5807 against tan(delta) = 0.5774). At every output from 0.05 s to 1 s, at the CFL step
+// (CFL 0.5, Max time step 0.01 s) and at half of it:
+// - u_mean within the issue's 1 % of the law (measured at most 0.18 %, at 0.05 s near the plug
+//   limit; the lagged drag beta(u^n) u^{n+1} this replaces was 47 % slow at 0.05 s, 3.5 % at 1 s);
+// - the error does not grow when dt halves (measured: it shrinks by 1.3-1.5x at 0.05 s; a
+//   dt-independent remainder of 0.04-0.09 % at 0.05 s is the creep of the regularised
+//   rheology inside the layer, see NdamPlugLong for the observed order);
+// - the layer is a plug: u_top - u_bottom of a column within 1 % of the base speed at 1 s.
+TEST(NdamCoulomb, PlugFromRestFollowsTheRegularisedLaw) {
+  struct Angles {
+    double zeta, delta, phi;
+  };
+  std::vector<double> times;
+  for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
+  for (const Angles& an : {Angles{40, 25, 35}, Angles{30, 20, 30}, Angles{40, 30, 35.5}}) {
+    const auto law = plug_law(an.zeta, an.delta, 100.0, times);
+    std::vector<double> err[2];
+    for (int half = 0; half < 2; ++half) {
+      FsCase c;
+      c.nx = 4;
+      c.lx = 0.02;
+      c.nz = 24;
+      c.lz = 0.06;
+      c.depth = 0.03;
+      c.slope_deg = an.zeta;
+      c.delta_deg = an.delta;
+      c.phi_deg = an.phi;
+      c.m_c = 100.0;
+      c.cfl = half ? 0.25 : 0.5;
+      auto s = make_fs(c);
+      const auto u = mean_u_at(*s, times, 0.01);
+      ASSERT_EQ(u.size(), times.size());
+      for (std::size_t q = 0; q < times.size(); ++q) {
+        err[half].push_back(u[q] / law[q] - 1.0);
+        EXPECT_LT(std::abs(err[half][q]), 0.01)
+            << an.zeta << "/" << an.delta << "/" << an.phi << " CFL " << c.cfl << " t = "
+            << times[q] << ": u_mean " << u[q] << " law " << law[q];
+      }
+      const auto uf = s->gather_u();
+      const int top = static_cast<int>(c.depth / (c.lz / c.nz)) - 2;  // last full Fluid row
+      const double ub = uf[static_cast<std::size_t>(c.nz)], ut = uf[static_cast<std::size_t>(c.nz + top)];
+      EXPECT_LT(std::abs(ut - ub), 0.01 * ub);
+      std::printf("plug %g/%g/%g CFL %.2f: u_mean/law - 1 = %+.4f %% (0.05 s) %+.4f %% (0.5 s) "
+                  "%+.4f %% (1 s); u_top - u_bottom %.2e m/s at u = %.3f m/s\n",
+                  an.zeta, an.delta, an.phi, c.cfl, 100 * err[half][0], 100 * err[half][9],
+                  100 * err[half][19], ut - ub, ub);
+    }
+    // halving dt: the error at each output does not grow (1e-5: round-off of u / law)
+    for (std::size_t q = 0; q < times.size(); ++q)
+      EXPECT_LE(std::abs(err[1][q]), std::abs(err[0][q]) + 1e-5)
+          << an.zeta << "/" << an.delta << " t = " << times[q];
+  }
+}
+
+// The same on the issue's own grid (8 x 24 cells of 1.25 x 2.5 mm), 40/25/35 deg, at CFL 0.5,
+// 0.25, 0.125 (label `long`, about 45 s): u_mean within 1 % of the plug law at every output
+// from 0.05 s to 1 s at each dt, and the observed order of the differences between successive
+// dt, p = log2(|u_0.5 - u_0.25| / |u_0.25 - u_0.125|), positive at every output (measured
+// 1.38 at every output: the start-up error the step limit leaves, O(dt^1.4), carried along).
+TEST(NdamPlugLong, IssueGridConvergesAsDtHalves) {
+  std::vector<double> times;
+  for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
+  const auto law = plug_law(40, 25, 100.0, times);
+  std::vector<std::vector<double>> u;
+  for (double cfl : {0.5, 0.25, 0.125}) {
+    FsCase c;
+    c.nx = 8;
+    c.lx = 0.01;
+    c.nz = 24;
+    c.lz = 0.06;
+    c.depth = 0.03;
+    c.slope_deg = 40;
+    c.delta_deg = 25;
+    c.phi_deg = 35;
+    c.cfl = cfl;
+    auto s = make_fs(c);
+    u.push_back(mean_u_at(*s, times, 0.01));
+    ASSERT_EQ(u.back().size(), times.size());
+    for (std::size_t q = 0; q < times.size(); ++q)
+      EXPECT_LT(std::abs(u.back()[q] / law[q] - 1.0), 0.01) << "CFL " << cfl << " t = " << times[q];
+  }
+  for (std::size_t q = 0; q < times.size(); ++q) {
+    const double p = std::log2(std::abs(u[0][q] - u[1][q]) / std::abs(u[1][q] - u[2][q]));
+    std::printf("plug (issue grid) t = %.2f s: error %+.4f / %+.4f / %+.4f %%, observed order %.2f\n",
+                times[q], 100 * (u[0][q] / law[q] - 1), 100 * (u[1][q] / law[q] - 1),
+                100 * (u[2][q] / law[q] - 1), p);
+    EXPECT_GT(p, 0.5) << "t = " << times[q];
+  }
 }
 
 // The Newtonian limit with Coulomb slip (DESIGN.md section 7): the layer accelerates uniformly
