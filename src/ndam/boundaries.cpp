@@ -318,11 +318,14 @@ void NdamSolver::update_friction(const Field& p_yield) {
 // with the current factors, the residual of the law at each Coulomb face,
 //   r = |c_used - c_mean(u^n, u)|,  c_used = (u - ghost) / q = c_l + d (u - v)
 // (the factor the solve applied, against the step's mean factor at its solution u; in units of
-// the Coulomb bound tan(delta) N). When max r over the faces (all ranks) exceeds `tolerance`,
-// the factors are relinearised about the solution, c_l = c_mean(u^n, u), d = d c_mean / du,
-// v = u, for the next solve. Returns max r (collective). Faces clamped to sticking are left
-// out (the law is replaced by no-slip there), and so are the fixed faces beyond the box.
-double NdamSolver::relinearise_friction(const Field& us, const Field& ws, double tolerance) {
+// the Coulomb bound tan(delta) N), and how far c_used went beyond the bound, |c_used| - 1. The
+// factors are relinearised about the solution, c_l = c_mean(u^n, u), d = d c_mean / du, v = u,
+// for another solve when `iterate(r, overshoot)` says so (max over the faces of all ranks).
+// Returns max r (collective). Faces clamped to sticking are left out (the law is replaced by
+// no-slip there), and so are the fixed faces beyond the box.
+double NdamSolver::relinearise_friction(const Field& us, const Field& ws,
+                                        const std::function<bool(double, double)>& iterate,
+                                        bool& relinearised) {
   const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
   const double m = cfg_.m_c;
   struct Face {
@@ -331,11 +334,12 @@ double NdamSolver::relinearise_friction(const Field& us, const Field& ws, double
     double q, u0, u1;
   };
   std::vector<Face> faces;
-  double r = 0.0;
+  double r = 0.0, over = -1.0;
   auto check = [&](bool bed, std::size_t f, double q, double ghost_a, double ghost_b, double u0,
                    double u1) {
     const double used = (u1 - (ghost_a * u1 + ghost_b)) / q;
     r = std::max(r, std::abs(used - coulomb_mean(m, u0, u1).c));
+    over = std::max(over, std::abs(used) - 1.0);
     faces.push_back({f, bed, q, u0, u1});
   };
   if (cfg_.walls[2].kind == WallKind::Coulomb)
@@ -351,7 +355,9 @@ double NdamSolver::relinearise_friction(const Field& us, const Field& ws, double
         check(false, f, wall_q_[f], wall_a_[f], wall_b_[f], w_(nxl - 1, k), ws(nxl - 1, k));
     }
   r = detail::allreduce_max(r, comm_);
-  if (r <= tolerance) return r;
+  over = detail::allreduce_max(over, comm_);
+  relinearised = iterate(r, over);
+  if (!relinearised) return r;
   for (const Face& fc : faces) {
     const CoulombMean cm = coulomb_mean(m, fc.u0, fc.u1);
     if (fc.bed)
