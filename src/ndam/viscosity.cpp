@@ -8,7 +8,6 @@
 // the walls are updated with it (boundaries.cpp), since they need nu_eff at the wall.
 #include "stencil.hpp"
 
-#include <algorithm>
 #include <cmath>
 
 namespace granflow::ndam {
@@ -37,26 +36,7 @@ void NdamSolver::update_viscosity(const Field& p_yield) {
       // pressure of eq. (26), the 1D side's pressure at x_IF
       const bool p26 = cfg_.inflow_pressure == InflowPressure::Rheology && mac_.slab.i0 + i == 0 &&
                        !cfg_.periodic_x();
-      double py = p26 ? inflow_p26(k) : p_yield(i, k);
-      // A Surface cell under the free surface holds material from its bottom up to the column's
-      // marker depth z_s; its pressure value is that of its centre, g cos(zeta) (z_s - z_c) in
-      // hydrostatics (free_surface.cpp), which is negative once z_s is below the centre, so the
-      // yield stress of the cell's material would be 0 and the top cell a Newtonian film of
-      // viscosity nu: on a deposit whose surface slopes by theta that film drains at about
-      // g sin(theta) dz^2 / (2 nu) (1.6 cm/s for dz = 5 mm, theta = 24 deg, nu = 0.003 m^2/s),
-      // whatever phi (issue 11 item 2). The material's yield stress is that at its mid-depth,
-      // (k dz + z_s) / 2, i.e. the centre value plus g cos(zeta) (dz - s) / 2, s = z_s - k dz
-      // the material thickness in the cell: the hydrostatic g cos(zeta) s / 2 >= 0, so a surface
-      // sloping below the angle of repose holds (tau / tau_y = tan(theta) / sin(phi) < 1, as in
-      // the cells below).
-      if (!p26 && cfg_.free_surface && !col_h_.empty() &&
-          mac_.gflag(mac_.slab.i0 + i, k) == CellFlag::Surface &&
-          (mac_.mask(mac_.slab.i0 + i, k) & empty_side::Top)) {
-        const double s = std::clamp(col_h_[static_cast<std::size_t>(mac_.slab.i0 + i)] - k * dz,
-                                    0.0, dz);
-        py += 0.5 * std::abs(phys_.gz) * (dz - s);
-      }
-      nu_(i, k) = rheo_.nu_eff(normD, py);
+      nu_(i, k) = rheo_.nu_eff(normD, p26 ? inflow_p26(k) : p_yield(i, k));
       if (cfg_.free_surface) normD_(i, k) = normD;
     }
   fill_scalar_ghosts(nu_);
