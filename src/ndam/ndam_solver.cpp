@@ -160,6 +160,8 @@ void NdamSolver::rest_state() {
   // grows by m_c |g| dt at most (stable_dt)
   if (cfg_.momentum == Momentum::Implicit && coulomb_walls())
     friction_dt_ = 1.0 / (cfg_.m_c * std::hypot(phys_.gx, phys_.gz));
+  u_star_ = u_;  // the wall load of the initial state (no step yet)
+  w_star_ = w_;
 }
 
 NdamSolver::~NdamSolver() = default;

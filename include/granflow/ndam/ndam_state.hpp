@@ -30,6 +30,9 @@ struct NdamState {
   double momentum_dt = -1.0;        ///< dt of the assembled momentum matrix (Newtonian reuse)
   /// the step limit of the Coulomb friction's start-up (NdamSolver::stable_dt) [s]; <= 0: none
   double friction_dt = -1.0;
+  /// u and w already hold the free-surface conditions of the markers' flags (an exported state):
+  /// loading does not apply them again (they are not idempotent).
+  bool surface_applied = false;
 };
 
 }  // namespace granflow::ndam
