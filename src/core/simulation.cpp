@@ -224,12 +224,16 @@ std::string host_name() {
 }
 
 // Peak resident set of this process (VmHWM of /proc/self/status) [B]; -1 if unknown.
-double peak_resident() {
+// A line "Name:   123 kB" of /proc/self/status in bytes (-1 where there is none).
+double proc_status_bytes(const char* name) {
   std::ifstream in("/proc/self/status");
+  const std::string key = std::string(name) + ":";
   for (std::string line; std::getline(in, line);)
-    if (line.rfind("VmHWM:", 0) == 0) return std::stod(line.substr(6)) * 1024.0;
+    if (line.rfind(key, 0) == 0) return std::stod(line.substr(key.size())) * 1024.0;
   return -1.0;
 }
+double peak_resident() { return proc_status_bytes("VmHWM"); }
+double current_resident() { return proc_status_bytes("VmRSS"); }
 
 std::string mpi_library() {
   char buf[MPI_MAX_LIBRARY_VERSION_STRING] = {0};
@@ -312,6 +316,9 @@ void Simulation::write_output() {
       layouts_.emplace_back(t, std::move(pieces));
   }
   if (io_->wall_on && io_rank()) io_->wall.flush();
+  // memory at this output against the material it holds (issue 14 item 5: the memory a run
+  // needs grows with its material cells and markers, not with its steps)
+  memory_samples_.push_back({t, current_resident(), peak_resident(), model_->mass_balance().current});
   if (rc_.fields) {
     io::FieldWriter w;
     model_->write_fields(w);
@@ -384,7 +391,13 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   s["memory"] = {{"estimate_bytes", memory_estimate_},
                  {"peak_resident_bytes_rank0", peak_resident()},
                  {"note", "estimate: all ranks on this node, before the run (granflow --check); "
-                          "peak: VmHWM of rank 0"}};
+                          "peak: VmHWM of rank 0; at_outputs: rank 0's resident set (VmRSS) "
+                          "and its peak so far (VmHWM) at each output of this run (a restart "
+                          "starts a new list), with the material area then [m^2]"}};
+  s["memory"]["at_outputs"] = nlohmann::json::array();
+  for (const auto& m : memory_samples_)
+    s["memory"]["at_outputs"].push_back({{"t", m.t}, {"resident_bytes", m.resident},
+                                         {"peak_bytes", m.peak}, {"material_m2", m.material}});
   const double wall = std::chrono::duration<double>(Clock::now() - wall0_).count();
   s["wall_time"] = {{"total", wall}};
   for (const auto& [k, v] : phase_seconds_) s["wall_time"][k] = v;

@@ -171,6 +171,13 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "system has no nearby root (measured: the free surface at the end wall of Setup "
              "II)",
              {"Stop", "Continue"});
+    add_enum(*pl, "Load balance", d.balance_material ? "Material" : "Columns",
+             "how the columns of the box are split into x-slabs over the MPI ranks: Material: "
+             "by the work of each column (its material cells, and a small share for its empty "
+             "ones), checked every few steps and rebuilt from the state when a rank holds more "
+             "than 10 % above the mean (a chute filling from the gate, a deposit growing at "
+             "the wall); Columns: equal numbers of columns, fixed. One rank: no effect",
+             {"Material", "Columns"});
     return pl;
   }();
   return valid;
@@ -218,6 +225,7 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                      b.get<std::string>("Left") + "'); allowed: Periodic on both or on neither");
   c.free_surface = pl.get<bool>("Free surface");
   c.markers_per_cell = pl.get<int>("Markers per cell");
+  c.balance_material = pl.get<std::string>("Load balance") == "Material";
   c.initial_depth = pl.get<double>("Initial depth");
   c.initial_x0 = pl.get<double>("Initial x0");
   c.initial_x1 = pl.get<double>("Initial x1");

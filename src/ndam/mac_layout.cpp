@@ -5,11 +5,12 @@
 
 #include "granflow/params/parameters.hpp"
 
+#include <stdexcept>
 #include <string>
 
 namespace granflow::ndam {
 
-MacLayout::MacLayout(MPI_Comm c, const Grid& g, bool periodic_x)
+MacLayout::MacLayout(MPI_Comm c, const Grid& g, bool periodic_x, const std::vector<int>& starts)
     : comm(c), grid(g), periodic(periodic_x) {
   int rank = 0, ranks = 1;
   MPI_Comm_rank(comm, &rank);
@@ -18,7 +19,19 @@ MacLayout::MacLayout(MPI_Comm c, const Grid& g, bool periodic_x)
     throw params::InputError("N-DAM: 'Cells x' = " + std::to_string(grid.nx) +
                              " is too few for " + std::to_string(ranks) +
                              " ranks (need >= 2 columns per rank)");
-  slab = Slab::split(grid.nx, rank, ranks);
+  if (starts.empty()) {
+    slab = Slab::split(grid.nx, rank, ranks);
+  } else {
+    bool ok = static_cast<int>(starts.size()) == ranks + 1 && starts.front() == 0 &&
+              starts.back() == grid.nx;
+    for (int r = 0; ok && r < ranks; ++r)
+      ok = starts[static_cast<std::size_t>(r) + 1] - starts[static_cast<std::size_t>(r)] >=
+           kMinColumns;
+    if (!ok)  // the callers derive the starts (load_balance.cpp, a checkpoint of this box)
+      throw std::logic_error("N-DAM: slab starts do not split " + std::to_string(grid.nx) +
+                             " columns over " + std::to_string(ranks) + " ranks");
+    slab = Slab::from_starts(starts, rank);
+  }
   left = rank > 0 ? rank - 1 : (periodic ? ranks - 1 : MPI_PROC_NULL);
   right = rank < ranks - 1 ? rank + 1 : (periodic ? 0 : MPI_PROC_NULL);
   flags.assign(static_cast<std::size_t>(grid.nx * grid.nz), CellFlag::Fluid);

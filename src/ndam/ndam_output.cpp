@@ -340,6 +340,10 @@ void NdamSolver::save(io::Checkpoint& c) const {
   c.set("ndam/momentum_dt", s.momentum_dt);
   c.set("ndam/friction_dt", s.friction_dt);
   c.set("ndam/surface_applied", s.surface_applied ? 1.0 : 0.0);
+  // the slabs of a split by the work of the columns (load_balance.cpp): a restart on as many
+  // ranks continues on them (its rebuilds then repeat the straight run's)
+  if (!slab_starts_.empty())
+    c.set("ndam/slab_starts", std::vector<double>(slab_starts_.begin(), slab_starts_.end()));
 }
 
 void NdamSolver::load(const io::Checkpoint& c) {
@@ -386,6 +390,21 @@ void NdamSolver::load(const io::Checkpoint& c) {
   }
   s.surface_applied = c.scalars().count("ndam/surface_applied") &&
                       c.scalar("ndam/surface_applied") != 0.0;
+  // The checkpoint's slabs when it was written on as many ranks (else the equal split).
+  std::vector<int> starts;
+  if (c.arrays().count("ndam/slab_starts")) {
+    const auto& a = c.array("ndam/slab_starts");
+    if (static_cast<int>(a.size()) == mac_.slab.ranks + 1)
+      for (double v : a) starts.push_back(static_cast<int>(v));
+  }
+  if (starts != slab_starts_) {
+    slab_starts_ = starts;
+    mac_ = MacLayout(comm_, cfg_.grid, cfg_.periodic_x(), slab_starts_);
+    has_obstacles_ = false;
+    newton_.reset();
+    q_evaluated_.clear();
+    setup();
+  }
   import_state(s);
 }
 
@@ -431,6 +450,16 @@ void NdamSolver::report(nlohmann::json& s) const {
       {"momentum_krylov_iterations_per_solve", avg(stats_.momentum_iterations, stats_.momentum_solves)},
       {"momentum_worst_relative_residual", stats_.worst_momentum_residual},
       {"unconverged_solves", stats_.unconverged_solves},
+      {"load_balance",
+       {{"checks", stats_.balance_checks},
+        {"rebuilds", stats_.rebalances},
+        {"seconds", stats_.rebalance_seconds},
+        {"mean_imbalance", stats_.balance_checks > 0
+                               ? stats_.imbalance_sum / static_cast<double>(stats_.balance_checks)
+                               : 1.0},
+        {"max_imbalance", stats_.balance_checks > 0 ? stats_.imbalance_max : 1.0},
+        {"note", "imbalance: the work (material cells) of the most loaded rank over the mean, "
+                 "at each check before a rebuild"}}},
       {"pressure_preconditioner_setups",
        pressure_->preconditioner_setups() + stats_.retired_pressure_setups},
       {"pressure_preconditioner_setup_seconds",

@@ -76,6 +76,8 @@ granflow_record_test(interrupt_writes_checkpoint_and_summary interrupt.sh)
 granflow_record_test(interrupt_np2_all_ranks_stop interrupt.sh NP=2)
 set_tests_properties(cli.interrupt_np2_all_ranks_stop PROPERTIES LABELS "cli;mpi" PROCESSORS 2)
 granflow_record_test(memory_estimate memory.sh)
+# Memory against the steps: a steady run 10x longer keeps its peak (issue 14 item 5).
+granflow_record_test(memory_steady_run memory_steady.sh)
 # The wall load (issue 11 item 5): wall.csv every step, summary, restart cut, dynamic layout.
 granflow_record_test(wall_load_series wall_load.sh)
 
@@ -211,6 +213,12 @@ granflow_cli_test(help_with_extra_argument 1 "--help takes no other argument" --
 granflow_cli_test(help_with_unknown_option 1 "unknown option '--bogus'" --help --bogus)
 granflow_cli_test(parameters_with_extra_argument 1 "--parameters takes no other argument" --parameters extra)
 
+# The speed benchmark's report (issue 14 item 6) on its quick matrix: what it prints is what the
+# runs measured (not a timing test: only consistency, see benchmark_quick.py).
+add_test(NAME cli.benchmark_quick
+         COMMAND /usr/bin/python3 ${_cli}/benchmark_quick.py ${CMAKE_BINARY_DIR} ${CMAKE_CURRENT_BINARY_DIR}/benchmark_quick)
+set_tests_properties(cli.benchmark_quick PROPERTIES LABELS "cli" TIMEOUT 300)
+
 # Error against run time (issue 12 item 5): the quick matrix of scripts/pareto.py is produced and
 # agrees with its runs' summary.json; the full matrices are long runs (label `long`; they resume
 # from the runs already made in their directory).
@@ -233,3 +241,9 @@ add_test(NAME cli.restart_exact_2d_coupled_dynamic
                  ${PROJECT_SOURCE_DIR}/inputs/setup2_coupled.xml
                  ${PROJECT_SOURCE_DIR}/inputs/setup2_dynamic.xml)
 set_tests_properties(cli.restart_exact_2d_coupled_dynamic PROPERTIES LABELS "cli" TIMEOUT 600)
+# ... and on two ranks, through the full 2D box's slab rebuilds (issue 14 item 4)
+add_test(NAME cli.restart_exact_2d_np2
+         COMMAND ${CMAKE_COMMAND} -E env NP=2 /usr/bin/python3 ${_cli}/restart_exact.py
+                 $<TARGET_FILE:granflow> ${CMAKE_CURRENT_BINARY_DIR}/restart_exact_np2
+                 ${PROJECT_SOURCE_DIR}/inputs/setup2_ndam.xml)
+set_tests_properties(cli.restart_exact_2d_np2 PROPERTIES LABELS "cli;mpi" PROCESSORS 2 TIMEOUT 600)

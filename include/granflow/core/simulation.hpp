@@ -115,6 +115,10 @@ class Simulation {
   std::vector<std::string> files_;      ///< files this run (and its earlier parts) wrote
   std::map<std::string, std::string> build_info_;
   double memory_estimate_ = 0.0;
+  struct MemorySample {
+    double t, resident, peak, material;  ///< [s], [B], [B], [m^2]
+  };
+  std::vector<MemorySample> memory_samples_;  ///< at each output (summary.json "memory")
   struct Io;
   std::shared_ptr<Io> io_;
 };

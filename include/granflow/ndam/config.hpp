@@ -73,6 +73,9 @@ struct NdamConfig {
   /// 'Pressure Newton failure' = Continue: an unconverged step keeps NOX's best iterate
   /// (counted in summary.json) instead of stopping the run.
   bool newton_failure_continue = false;
+  /// 'Load balance' = Material: on several ranks the x-slabs follow the material cells
+  /// (rebalanced as the material moves, load_balance.cpp); false: equal columns.
+  bool balance_material = true;
 
   // --- free-surface chute ---------------------------------------------------------------------
   /// Material tracked by markers: cells with markers are Fluid/Surface, the others Empty (p = 0).

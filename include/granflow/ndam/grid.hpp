@@ -67,6 +67,17 @@ struct Slab {
     s.i0 = rank * base + (rank < extra ? rank : extra);
     return s;
   }
+  /// The slab of `rank` for the first columns `starts` of the ranks (ranks + 1 entries,
+  /// starts[0] = 0, starts[ranks] = nx, increasing): a split weighted by the work of the
+  /// columns (load_balance.cpp).
+  static Slab from_starts(const std::vector<int>& starts, int rank) {
+    Slab s;
+    s.rank = rank;
+    s.ranks = static_cast<int>(starts.size()) - 1;
+    s.i0 = starts[static_cast<std::size_t>(rank)];
+    s.nx_local = starts[static_cast<std::size_t>(rank) + 1] - s.i0;
+    return s;
+  }
 };
 
 /// A cell-indexed array of one rank with G ghost columns and one ghost row on each side;

@@ -25,8 +25,12 @@ class MacLayout {
   MacLayout() = default;
   /// This rank's slab of `grid` on `comm` (collective only in the sense that every rank builds
   /// its own); every cell Fluid. Throws params::InputError when a rank would get fewer than two
-  /// columns.
-  MacLayout(MPI_Comm comm, const Grid& grid, bool periodic_x);
+  /// columns. `starts` (optional, ranks + 1 entries): the first column of each rank instead of
+  /// the equal split (Slab::from_starts; each rank at least kMinColumns columns).
+  MacLayout(MPI_Comm comm, const Grid& grid, bool periodic_x, const std::vector<int>& starts = {});
+  /// Columns a rank needs at least in a weighted split: the halo is G = 2 columns deep and
+  /// comes from the neighbour's owned columns.
+  static constexpr int kMinColumns = 4;
 
   MPI_Comm comm = MPI_COMM_NULL;
   Grid grid;

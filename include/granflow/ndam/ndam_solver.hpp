@@ -93,6 +93,10 @@ class NdamSolver final : public core::Stepper {
   void save(io::Checkpoint& c) const override;
   void load(const io::Checkpoint& c) override;
   void restart_point() override;
+  /// Several ranks with 'Load balance' = Material: every kBalanceInterval steps, the x-slabs
+  /// are split anew by the work of the columns when a rank holds more than 10 % above the mean
+  /// (the box is rebuilt from its state; load_balance.cpp). Returns whether it did.
+  bool adapt() override;
   void report(nlohmann::json& stats) const override;
   /// A free-surface chute that ends at a rigid wall (not periodic, no open outflow).
   bool end_wall() const override;
@@ -179,6 +183,10 @@ class NdamSolver final : public core::Stepper {
   void setup();                              // layout, fields, markers, linear systems
   void rest_state();                         // the initial layer at rest, eq. (10) pressure
   void import_state(const NdamState& s);     // the given state (restart, rebuilt box)
+  // --- load_balance.cpp: x-slabs by the work of the columns ----------------------------------
+  std::vector<double> column_work() const;                 // every rank, from the flags
+  std::vector<int> balanced_starts(const std::vector<double>& work) const;
+  void rebuild_slabs(const std::vector<int>& starts);      // the same state on other slabs
   // --- boundaries.cpp: walls, moving lid, Coulomb slip ghosts, friction factors, ghosts -----
   Ref u_ref(int i, int k) const;
   Ref w_ref(int i, int k) const;
@@ -236,6 +244,7 @@ class NdamSolver final : public core::Stepper {
   Rheology rheo_;
   NdamPhysics phys_;
   MacLayout mac_;  // grid, slab, flags, unknowns, halo exchange
+  std::vector<int> slab_starts_;  // first column of each rank (empty: the equal split)
 
   // state at t^n (ghosts filled) and the tentative state of step()
   Field u_, w_, p_, nu_;

@@ -38,6 +38,11 @@ struct NdamStatistics {
   double step_momentum = 0.0, step_pressure = 0.0, step_markers = 0.0, step_other = 0.0;
   double total_momentum = 0.0, total_pressure = 0.0, total_markers = 0.0, total_other = 0.0;
 
+  // the x-slabs over the ranks ('Load balance', load_balance.cpp): rebuilds, their seconds, and
+  // the load of the most loaded rank over the mean, summed over the checks (for the mean)
+  long long rebalances = 0, balance_checks = 0;
+  double rebalance_seconds = 0.0, imbalance_sum = 0.0, imbalance_max = 0.0;
+
   /// Books a step of size dt (at step()).
   void record_dt(double dt) {
     dt_min = dt_max == 0.0 ? dt : std::min(dt_min, dt);
@@ -78,6 +83,11 @@ struct NdamStatistics {
     total_pressure += o.total_pressure;
     total_markers += o.total_markers;
     total_other += o.total_other;
+    rebalances += o.rebalances;
+    balance_checks += o.balance_checks;
+    rebalance_seconds += o.rebalance_seconds;
+    imbalance_sum += o.imbalance_sum;
+    imbalance_max = std::max(imbalance_max, o.imbalance_max);
   }
   /// Adds the last step's phase times to the totals (at accept()).
   void accept_times() {
