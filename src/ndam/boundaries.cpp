@@ -5,7 +5,7 @@
 // Every velocity sample a stencil touches is a `Ref` (stencil.hpp): a * (unknown) + b. Beyond a
 // wall the tangential ghost is the mirror of the first inner value,
 //   no-slip     u_g = -u_1,          moving lid  u_g = 2 U - u_1,      free slip  u_g = u_1,
-//   Coulomb     u_g = a_F u_1  with a_F = 1 - dz beta N / nu_b from the sliding law (13),
+//   Coulomb     u_g = a_F u_1 + b_F  from the sliding law (13) linearised in the step,
 // and wall-normal faces are fixed (u = 0). The free surface, the silo gate and the open outflow
 // give the other known faces (free_surface.cpp, inflow.cpp).
 #include "stencil.hpp"
@@ -16,12 +16,12 @@
 namespace granflow::ndam {
 
 namespace {
-// The tangential ghost beyond a wall of kind wl from the inside sample r (see above); `coulomb`
-// is the Robin factor a_F of a Coulomb wall.
-NdamSolver::Ref wall_ghost(const Wall& wl, NdamSolver::Ref r, double coulomb) {
+// The tangential ghost beyond a wall of kind wl from the inside sample r (see above); a Coulomb
+// wall's ghost is affine in r, a r + b (update_friction).
+NdamSolver::Ref wall_ghost(const Wall& wl, NdamSolver::Ref r, double a, double b) {
   if (wl.kind == WallKind::Coulomb) {
-    r.a *= coulomb;
-    r.b *= coulomb;
+    r.a *= a;
+    r.b = a * r.b + b;
     return r;
   }
   const double s = wl.kind == WallKind::FreeSlip ? 1.0 : -1.0;
@@ -29,15 +29,31 @@ NdamSolver::Ref wall_ghost(const Wall& wl, NdamSolver::Ref r, double coulomb) {
   r.b = s * r.b + (wl.kind == WallKind::MovingLid ? 2.0 * wl.velocity : 0.0);
   return r;
 }
+
+// The Robin ghost of a Coulomb face, ghost = a u + b, when the friction factor of the step is
+// linearised as c_l + d (u - v) (update_friction): with q = dz tan(delta) N / nu_b the stress
+// balance nu_b (u - ghost) / dz = tan(delta) N (c_l + d (u - v)) gives
+//   a = 1 - q d,  b = -q (c_l - d v).
+// a < -1 is a drag stiffer than sticking: clamped to the no-slip ghost (a = -1, b = 0), since
+// regularised friction cannot hold more than sticking does. Returns whether it was clamped.
+bool coulomb_ghost(double q, double c_l, double d, double v, double& a, double& b) {
+  a = 1.0 - q * d;
+  b = -q * (c_l - d * v);
+  if (a >= -1.0) return false;
+  a = -1.0;
+  b = 0.0;
+  return true;
+}
 }  // namespace
 
 NdamSolver::Ref NdamSolver::u_ref(int i, int k) const {
   const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
   if (k < 0 || k >= nz) {
     // tangential ghost below the bottom / above the top wall
-    // (Coulomb: the bed only, the Robin ghost u(i,-1) = a u(i,0) of update_friction)
-    return wall_ghost(cfg_.walls[k < 0 ? 2 : 3], u_ref(i, k < 0 ? 0 : nz - 1),
-                      bed_a_[static_cast<std::size_t>(i + Field::G)]);
+    // (Coulomb: the bed only, the Robin ghost u(i,-1) = a u(i,0) + b of update_friction)
+    const auto f = static_cast<std::size_t>(i + Field::G);
+    return wall_ghost(cfg_.walls[k < 0 ? 2 : 3], u_ref(i, k < 0 ? 0 : nz - 1), bed_a_[f],
+                      bed_b_[f]);
   }
   Ref r;
   r.loc = u_.index(i, k);
@@ -104,9 +120,11 @@ NdamSolver::Ref NdamSolver::w_ref(int i, int k) const {
   const int gi = mac_.slab.i0 + i;
   if (!cfg_.periodic_x() && (gi < 0 || gi >= nx)) {
     // tangential ghost left of x = 0 / right of x = L: mirror of the first inner column
-    // (Coulomb: the end wall only, the Robin ghost w(nx, k) = a w(nx-1, k) of update_friction)
+    // (Coulomb: the end wall only, the Robin ghost w(nx, k) = a w(nx-1, k) + b of
+    // update_friction)
+    const auto f = static_cast<std::size_t>(k);
     return wall_ghost(cfg_.walls[gi < 0 ? 0 : 1], w_ref(gi < 0 ? i + 1 : i - 1, k),
-                      gi >= nx ? wall_a_[static_cast<std::size_t>(k)] : 1.0);
+                      gi >= nx ? wall_a_[f] : 1.0, gi >= nx ? wall_b_[f] : 0.0);
   }
   if (!mac_.w_unknown(i, k)) {
     // inside an obstacle next to a fluid face left or right: no-slip tangential ghost
@@ -221,23 +239,36 @@ void NdamSolver::fill_scalar_ghosts(Field& s) const {
 
 // Coulomb sliding law (11)-(13) on the bed (and the end wall) as a Robin ghost value. At the
 // bed the tangential stress of the material balances the friction,
-//   nu_eff du/dz = c_F sgn(u_b) N,  N = p + 2 nu_eff du/dx (compressive normal stress, 13),
-//   c_F = tan(delta) (1 - exp(-m_c |u_b|))                              (12),
-// which is written as nu_b (u(i,0) - u(i,-1)) / dz = beta N u(i,0) with the friction per unit
-// velocity beta = c_F / |u_b| (-> tan(delta) m_c as u_b -> 0), i.e. the ghost
-//   u(i,-1) = a u(i,0),  a = 1 - dz beta N / nu_b.
-// beta, N and nu_b are lagged (t^n), the velocity is the unknown of the (implicit) momentum
-// step: a positive drag that stays stable for any dt (Picard linearisation of the friction).
-// a is clamped at -1 (no slip): regularised friction cannot hold more than sticking does.
-// delta = 0 gives a = 1: free slip. p at the bed: the mean of the material cells above the face
-// extrapolated hydrostatically by dz/2 (p_b = p_0 + g cos(zeta) dz / 2).
+//   nu_eff du/dz = tan(delta) c N,  N = p + 2 nu_eff du/dx (compressive normal stress, 13),
+//   c = sgn(u_b) (1 - exp(-m_c |u_b|))                                   (12),
+// written with the first inner face as u_b: nu_b (u(i,0) - u(i,-1)) / dz = tan(delta) N c.
+// N and nu_b are lagged (t^n). In time, c is the mean of (12) over the base velocities of the
+// step, c_mean(u^n, u^{n+1}) (rheology.hpp: the step's friction work is exact, |c| <= 1 so the
+// stress never exceeds the Coulomb bound tan(delta) N, and c = c(u) at a steady slide; see
+// docs/numerics.md, "Coulomb friction in time"). It is nonlinear in the unknown u^{n+1}, so it
+// is linearised about a velocity v, c ~ c_l + d (u - v), which makes the ghost affine,
+//   u(i,-1) = a u(i,0) + b  (coulomb_ghost),  q = dz tan(delta) N / nu_b,
+// and the momentum step is repeated with v = its last solution until the law holds
+// (relinearise_friction, Newton's method). Here, at the start of the step, the factors are the
+// tangent of (12) at u^n: c_l = c(u^n), d = c'(u^n), v = u^n (linearised backward Euler: the
+// exact stress c(u^n) at u = u^n and a positive drag, stable for any dt). The lagged form
+// beta(u^n) u^{n+1} with beta = c(u^n) / |u^n| that this replaces exceeded the Coulomb bound
+// by u^{n+1} / u^n while the base accelerates (issue 11). delta = 0 gives a = 1, b = 0: free
+// slip. p at the bed: the mean of the material cells above the face extrapolated
+// hydrostatically by dz/2 (p_b = p_0 + g cos(zeta) dz / 2).
 void NdamSolver::update_friction(const Field& p_yield) {
   const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
-  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
-  auto beta = [&](double ub) {  // c_F / |u_b| (12)
-    return phys_.tan_delta * regularised_inverse(cfg_.m_c, std::abs(ub));
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz(), m = cfg_.m_c;
+  // the tangent of (12) at u^n: c_l = c(u^n), d = c'(u^n) = m exp(-m |u^n|)
+  auto tangent = [&](double q, double un, double& a, double& b) {
+    const double e = std::exp(-m * std::abs(un));
+    return coulomb_ghost(q, (un >= 0.0 ? 1.0 : -1.0) * (1.0 - e), m * e, un, a, b);
   };
-  bed_a_.assign(static_cast<std::size_t>(nxl + 2 * G), 1.0);
+  const auto nb = static_cast<std::size_t>(nxl + 2 * G);
+  bed_a_.assign(nb, 1.0);
+  bed_b_.assign(nb, 0.0);
+  bed_q_.assign(nb, 0.0);
+  bed_stuck_.assign(nb, 0);
   if (cfg_.walls[2].kind == WallKind::Coulomb)
     for (int i = -G; i < nxl + G; ++i) {
       const int gi = mac_.slab.i0 + i;
@@ -257,11 +288,15 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double nub = 0.5 * (nu_(i, 0) + nu_(ir, 0));
       const double dudx = (u_(ir, 0) - u_(il, 0)) / ((ir - il) * dx);
       const double N = std::max(0.0, pb + 2.0 * nub * dudx);
-      const double a = 1.0 - dz * beta(u_(i, 0)) * N / nub;
-      bed_a_[static_cast<std::size_t>(i + G)] = std::max(-1.0, a);
+      const auto f = static_cast<std::size_t>(i + G);
+      bed_q_[f] = dz * phys_.tan_delta * N / nub;
+      bed_stuck_[f] = tangent(bed_q_[f], u_(i, 0), bed_a_[f], bed_b_[f]);
     }
   exchange_bed_factors();
   wall_a_.assign(static_cast<std::size_t>(nz), 1.0);
+  wall_b_.assign(static_cast<std::size_t>(nz), 0.0);
+  wall_q_.assign(static_cast<std::size_t>(nz), 0.0);
+  wall_stuck_.assign(static_cast<std::size_t>(nz), 0);
   if (cfg_.walls[1].kind == WallKind::Coulomb && mac_.slab.i0 + nxl == cfg_.grid.nx)
     for (int k = 0; k < nz - 1; ++k) {
       const int i = nxl - 1, gi = mac_.slab.i0 + i;
@@ -278,9 +313,65 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double nuw = 0.5 * (nu_(i, k) + nu_(i, k + 1));
       const double dwdz = (w_(i, k + 1) - w_(i, std::max(k - 1, -1))) / ((k + 1 - std::max(k - 1, -1)) * dz);
       const double N = std::max(0.0, pw + 2.0 * nuw * dwdz);
-      const double a = 1.0 - dx * beta(w_(i, k)) * N / nuw;
-      wall_a_[static_cast<std::size_t>(k)] = std::max(-1.0, a);
+      const auto f = static_cast<std::size_t>(k);
+      wall_q_[f] = dx * phys_.tan_delta * N / nuw;
+      wall_stuck_[f] = tangent(wall_q_[f], w_(i, k), wall_a_[f], wall_b_[f]);
     }
+}
+
+// Newton's method on the friction of the step (update_friction): after a momentum solve us, ws
+// with the current factors, the residual of the law at each Coulomb face,
+//   r = |c_used - c_mean(u^n, u)|,  c_used = (u - ghost) / q = c_l + d (u - v)
+// (the factor the solve applied, against the step's mean factor at its solution u; in units of
+// the Coulomb bound tan(delta) N), and how far c_used went beyond the bound, |c_used| - 1. The
+// factors are relinearised about the solution, c_l = c_mean(u^n, u), d = d c_mean / du, v = u,
+// for another solve when `iterate(r, overshoot)` says so (max over the faces of all ranks).
+// Returns max r (collective). Faces clamped to sticking are left out (the law is replaced by
+// no-slip there), and so are the fixed faces beyond the box.
+double NdamSolver::relinearise_friction(const Field& us, const Field& ws,
+                                        const std::function<bool(double, double)>& iterate,
+                                        bool& relinearised) {
+  const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  const double m = cfg_.m_c;
+  struct Face {
+    std::size_t f;
+    bool bed;
+    double q, u0, u1;
+  };
+  std::vector<Face> faces;
+  double r = 0.0, over = -1.0;
+  auto check = [&](bool bed, std::size_t f, double q, double ghost_a, double ghost_b, double u0,
+                   double u1) {
+    const double used = (u1 - (ghost_a * u1 + ghost_b)) / q;
+    r = std::max(r, std::abs(used - coulomb_mean(m, u0, u1).c));
+    over = std::max(over, std::abs(used) - 1.0);
+    faces.push_back({f, bed, q, u0, u1});
+  };
+  if (cfg_.walls[2].kind == WallKind::Coulomb)
+    for (int i = 0; i < nxl; ++i) {
+      const auto f = static_cast<std::size_t>(i + G);
+      if (bed_q_[f] > 0.0 && !bed_stuck_[f] && mac_.u_unknown(i, 0))
+        check(true, f, bed_q_[f], bed_a_[f], bed_b_[f], u_(i, 0), us(i, 0));
+    }
+  if (cfg_.walls[1].kind == WallKind::Coulomb && mac_.slab.i0 + nxl == cfg_.grid.nx)
+    for (int k = 0; k < nz - 1; ++k) {
+      const auto f = static_cast<std::size_t>(k);
+      if (wall_q_[f] > 0.0 && !wall_stuck_[f] && mac_.w_unknown(nxl - 1, k))
+        check(false, f, wall_q_[f], wall_a_[f], wall_b_[f], w_(nxl - 1, k), ws(nxl - 1, k));
+    }
+  r = detail::allreduce_max(r, comm_);
+  over = detail::allreduce_max(over, comm_);
+  relinearised = iterate(r, over);
+  if (!relinearised) return r;
+  for (const Face& fc : faces) {
+    const CoulombMean cm = coulomb_mean(m, fc.u0, fc.u1);
+    if (fc.bed)
+      bed_stuck_[fc.f] = coulomb_ghost(fc.q, cm.c, cm.dc, fc.u1, bed_a_[fc.f], bed_b_[fc.f]);
+    else
+      wall_stuck_[fc.f] = coulomb_ghost(fc.q, cm.c, cm.dc, fc.u1, wall_a_[fc.f], wall_b_[fc.f]);
+  }
+  exchange_bed_factors();
+  return r;
 }
 
 // The Coulomb factors of the faces in the ghost columns that belong to a neighbour slab (or to
@@ -289,17 +380,19 @@ void NdamSolver::update_friction(const Field& p_yield) {
 void NdamSolver::exchange_bed_factors() {
   if (cfg_.walls[2].kind != WallKind::Coulomb) return;
   const int G = Field::G, nxl = mac_.slab.nx_local;
-  auto* a = bed_a_.data();
-  // my first G faces to the left neighbour, its last G into my right ghosts; and mirrored
-  std::vector<double> recv_r(static_cast<std::size_t>(G), 1.0), recv_l(recv_r);
-  MPI_Sendrecv(a + G, G, MPI_DOUBLE, mac_.left, 21, recv_r.data(), G, MPI_DOUBLE, mac_.right, 21,
-               comm_, MPI_STATUS_IGNORE);
-  MPI_Sendrecv(a + nxl, G, MPI_DOUBLE, mac_.right, 22, recv_l.data(), G, MPI_DOUBLE, mac_.left,
-               22, comm_, MPI_STATUS_IGNORE);
-  if (mac_.right != MPI_PROC_NULL)
-    for (int q = 0; q < G; ++q) a[nxl + G + q] = recv_r[static_cast<std::size_t>(q)];
-  if (mac_.left != MPI_PROC_NULL)
-    for (int q = 0; q < G; ++q) a[q] = recv_l[static_cast<std::size_t>(q)];
+  for (std::vector<double>* v : {&bed_a_, &bed_b_}) {
+    auto* a = v->data();
+    // my first G faces to the left neighbour, its last G into my right ghosts; and mirrored
+    std::vector<double> recv_r(static_cast<std::size_t>(G), 1.0), recv_l(recv_r);
+    MPI_Sendrecv(a + G, G, MPI_DOUBLE, mac_.left, 21, recv_r.data(), G, MPI_DOUBLE, mac_.right,
+                 21, comm_, MPI_STATUS_IGNORE);
+    MPI_Sendrecv(a + nxl, G, MPI_DOUBLE, mac_.right, 22, recv_l.data(), G, MPI_DOUBLE,
+                 mac_.left, 22, comm_, MPI_STATUS_IGNORE);
+    if (mac_.right != MPI_PROC_NULL)
+      for (int q = 0; q < G; ++q) a[nxl + G + q] = recv_r[static_cast<std::size_t>(q)];
+    if (mac_.left != MPI_PROC_NULL)
+      for (int q = 0; q < G; ++q) a[q] = recv_l[static_cast<std::size_t>(q)];
+  }
 }
 
 }  // namespace granflow::ndam

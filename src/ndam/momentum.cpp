@@ -15,8 +15,31 @@
 #include "stencil.hpp"
 
 #include <cmath>
+#include <limits>
 
 namespace granflow::ndam {
+
+namespace {
+// Newton's method on the step's friction (Coulomb walls, predict_velocity). The first solve
+// takes the tangent of (12) at u^n (linearised backward Euler, update_friction); Newton starts
+// from it only where that tangent is not good enough for the step: when the factor it applied
+// went beyond the Coulomb bound (|c_used| > 1: a base starting to slide, the tangent's
+// m_c exp(-m_c |u^n|) (u - u^n) overshooting) or missed the step's mean factor c_mean(u^n, u)
+// by more than kFrictionStart of the bound. Then it iterates until the factor each face's
+// solve applied is within kFrictionTolerance of c_mean at the solution (units of the Coulomb
+// bound tan(delta) N; Newton converges quadratically, one or two more solves). At most
+// kFrictionMaxSolves solves per step; the last one's state is kept (counted in summary.json).
+// The start threshold leaves the small changes of a base at rest (or creeping) to the one
+// tangent solve: both share the steady states, and the tangent damps the step-to-step noise of
+// a resting deposit, which the mean (trapezoidal for the linear drag near u = 0) does not at a
+// reversal. Measured (docs/numerics.md): on the plug, 0.05 and 0.02 give the same u(t) to
+// 1e-4, while starting only on an overshoot of the bound leaves it 3 % slow at 0.05 s; in the
+// 5 mm column collapse (250 steps to 1.5 s) it halves the extra solves of a threshold of 0
+// (192 against 392; the surface noise of the resting deposit still starts most of them).
+constexpr double kFrictionStart = 0.05;
+constexpr double kFrictionTolerance = 1e-4;
+constexpr int kFrictionMaxSolves = 6;
+}  // namespace
 
 double NdamSolver::nu_corner(int i, int k) const {
   if (cfg_.free_surface) {
@@ -175,55 +198,98 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   // Implicit: (I/dt - V) u* = u^n/dt + forces. The matrix depends on nu_eff and dt only; with
   // a constant viscosity and an unchanged dt the assembled matrix and its preconditioner are
   // reused. The boundary constants of V go to the right-hand side in every step.
-  const bool rebuild = !rheo_.newtonian() || dt != momentum_dt_ || cfg_.free_surface ||
-                       cfg_.walls[1].kind == WallKind::Coulomb ||
-                       cfg_.walls[2].kind == WallKind::Coulomb;
+  const bool coulomb = coulomb_walls();
+  // The momentum preconditioner may be reused over assemblies (solver sublist's 'Preconditioner
+  // reuse'); one built for I/dt - V at another dt is a poor one where the viscous part is stiff
+  // (a resting Drucker-Prager column: nu_eff dt / dz^2 ~ 1e5, so only I/dt and the friction act
+  // on its rigid modes). The start-up limit of the friction (stable_dt) changes dt from step to
+  // step in the first steps of a run: measured on the 2.5 mm column collapse, GMRES with the
+  // preconditioner of the previous step stalled (relative residual 7e-4 after 1000 iterations
+  // at 10 ms after 8 ms, 1.2e-6 at 1 ms after 0.5 ms); rebuilt, it converges.
+  // A dt change by more than 10 % builds a new one (momentum_dt_ is in the state: restarts
+  // agree).
+  if (momentum_dt_ > 0.0 && (dt > 1.1 * momentum_dt_ || dt < momentum_dt_ / 1.1))
+    momentum_->invalidate_preconditioner();
   const long long first = 2 * mac_.p_gid(mac_.slab.i0, 0);
   std::vector<double> rhs(static_cast<std::size_t>(2 * nxl * nz)), x(rhs.size());
-  if (rebuild) momentum_->begin();
-  for (int i = 0; i < nxl; ++i)
-    for (int k = 0; k < nz; ++k)
-      for (Comp c : {U, W}) {
-        const long long row = 2 * mac_.p_gid(mac_.slab.i0 + i, k) + c;
-        const auto lr = static_cast<std::size_t>(row - first);
-        const bool unknown = c == U ? mac_.u_unknown(i, k) : mac_.w_unknown(i, k);
-        if (!unknown) {  // wall-normal face: identity row, value 0
-          if (rebuild) momentum_->add(row, row, 1.0);
-          rhs[lr] = 0.0;
-          x[lr] = 0.0;
-          continue;
-        }
-        double b = c == U ? u_(i, k) / dt + force_u(i, k) : w_(i, k) / dt + force_w(i, k);
-        if (rebuild) momentum_->add(row, row, 1.0 / dt);
-        auto emit = [&](Comp cc, int ii, int kk, double coeff) {
-          const Ref r = ref(cc, ii, kk);
-          if (r.gid < 0) {  // a known value (boundary or free-surface face)
-            b += coeff * detail::value(r, cc == U ? u_ : w_);
-            return;
-          }
-          b += coeff * r.b;
-          if (r.a != 0.0 && rebuild) momentum_->add(row, r.gid, -coeff * r.a);
-        };
-        if (c == U) viscous_u(i, k, emit);
-        else viscous_w(i, k, emit);
-        rhs[lr] = b;
-        x[lr] = c == U ? u_(i, k) : w_(i, k);  // initial guess: u^n
-      }
-  if (rebuild) {
-    momentum_->end();
-    momentum_dt_ = dt;
-  }
-  mom_stats_ = momentum_->solve(rhs, x);
-  ++stats_.momentum_solves;
-  stats_.momentum_iterations += mom_stats_.iterations;
-  stats_.worst_momentum_residual = std::max(stats_.worst_momentum_residual, mom_stats_.residual);
-  if (!mom_stats_.converged) ++stats_.unconverged_solves;
   for (int i = 0; i < nxl; ++i)
     for (int k = 0; k < nz; ++k) {
       const auto lr = static_cast<std::size_t>(2 * mac_.p_gid(mac_.slab.i0 + i, k) - first);
-      if (mac_.u_unknown(i, k)) us(i, k) = x[lr];
-      if (mac_.w_unknown(i, k)) ws(i, k) = x[lr + 1];
+      x[lr] = u_(i, k);  // initial guess: u^n (wall-normal faces: 0)
+      x[lr + 1] = w_(i, k);
     }
+  // A Coulomb wall makes the step nonlinear in u* (the step's mean friction factor,
+  // update_friction): Newton's method, each iteration a solve with the friction linearised
+  // about the last solution (relinearise_friction), until the law holds to
+  // kFrictionTolerance of the Coulomb bound or after kFrictionMaxSolves solves. Each solve
+  // starts from the last one.
+  for (int solve = 1;; ++solve) {
+    const bool rebuild = !rheo_.newtonian() || dt != momentum_dt_ || cfg_.free_surface ||
+                         coulomb;
+    if (rebuild) momentum_->begin();
+    for (int i = 0; i < nxl; ++i)
+      for (int k = 0; k < nz; ++k)
+        for (Comp c : {U, W}) {
+          const long long row = 2 * mac_.p_gid(mac_.slab.i0 + i, k) + c;
+          const auto lr = static_cast<std::size_t>(row - first);
+          const bool unknown = c == U ? mac_.u_unknown(i, k) : mac_.w_unknown(i, k);
+          if (!unknown) {  // wall-normal face: identity row, value 0
+            if (rebuild) momentum_->add(row, row, 1.0);
+            rhs[lr] = 0.0;
+            x[lr] = 0.0;
+            continue;
+          }
+          double b = c == U ? u_(i, k) / dt + force_u(i, k) : w_(i, k) / dt + force_w(i, k);
+          if (rebuild) momentum_->add(row, row, 1.0 / dt);
+          auto emit = [&](Comp cc, int ii, int kk, double coeff) {
+            const Ref r = ref(cc, ii, kk);
+            if (r.gid < 0) {  // a known value (boundary or free-surface face)
+              b += coeff * detail::value(r, cc == U ? u_ : w_);
+              return;
+            }
+            b += coeff * r.b;
+            if (r.a != 0.0 && rebuild) momentum_->add(row, r.gid, -coeff * r.a);
+          };
+          if (c == U) viscous_u(i, k, emit);
+          else viscous_w(i, k, emit);
+          rhs[lr] = b;
+        }
+    if (rebuild) {
+      momentum_->end();
+      momentum_dt_ = dt;
+    }
+    mom_stats_ = momentum_->solve(rhs, x);
+    ++stats_.momentum_solves;
+    stats_.momentum_iterations += mom_stats_.iterations;
+    stats_.worst_momentum_residual = std::max(stats_.worst_momentum_residual, mom_stats_.residual);
+    if (!mom_stats_.converged) ++stats_.unconverged_solves;
+    for (int i = 0; i < nxl; ++i)
+      for (int k = 0; k < nz; ++k) {
+        const auto lr = static_cast<std::size_t>(2 * mac_.p_gid(mac_.slab.i0 + i, k) - first);
+        if (mac_.u_unknown(i, k)) us(i, k) = x[lr];
+        if (mac_.w_unknown(i, k)) ws(i, k) = x[lr + 1];
+      }
+    if (!coulomb) break;
+    fill_velocity_ghosts(us, ws);
+    // the last allowed solve keeps its factors (the ghosts above are those of the solve)
+    bool again = false;
+    const double r = relinearise_friction(
+        us, ws,
+        [&](double res, double over) {
+          if (solve >= kFrictionMaxSolves) return false;
+          return solve == 1 ? (over > 0.0 || res > kFrictionStart) : res > kFrictionTolerance;
+        },
+        again);
+    if (!again) {
+      stats_.friction_solves += solve - 1;
+      stats_.friction_max_solves = std::max(stats_.friction_max_solves, solve);
+      if (solve >= kFrictionMaxSolves && r > kFrictionTolerance) {
+        ++stats_.friction_unconverged;
+        stats_.friction_worst_residual = std::max(stats_.friction_worst_residual, r);
+      }
+      break;
+    }
+  }
   fill_velocity_ghosts(us, ws);
 }
 

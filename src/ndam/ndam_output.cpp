@@ -187,26 +187,35 @@ NdamState NdamSolver::export_state() const {
     s.mass0 = mass0_;
     s.inflow_owed = inflow_owed_;
   }
-  // the lagged Coulomb factors: the owners' faces of every column, and the G ghost faces beyond
-  // each end of the box (rank 0 and the last rank own those)
+  // the lagged Coulomb ghosts (a u + b): the owners' faces of every column, and the G ghost
+  // faces beyond each end of the box (rank 0 and the last rank own those)
   {
     const int G = Field::G, nxl = mac_.slab.nx_local;
-    const std::vector<double> own(bed_a_.begin() + G, bed_a_.begin() + G + nxl);
-    const auto all = mac_.gather_columns(own);
-    std::vector<double> ends(static_cast<std::size_t>(2 * G), 1.0);
-    for (int q = 0; q < G; ++q) {
-      ends[static_cast<std::size_t>(q)] = bed_a_[static_cast<std::size_t>(q)];
-      ends[static_cast<std::size_t>(G + q)] = bed_a_[static_cast<std::size_t>(nxl + G + q)];
-    }
-    MPI_Bcast(ends.data(), G, MPI_DOUBLE, 0, comm_);
-    MPI_Bcast(ends.data() + G, G, MPI_DOUBLE, mac_.slab.ranks - 1, comm_);
-    s.bed_factor.assign(ends.begin(), ends.begin() + G);
-    s.bed_factor.insert(s.bed_factor.end(), all.begin(), all.end());
-    s.bed_factor.insert(s.bed_factor.end(), ends.begin() + G, ends.end());
-    s.wall_factor = wall_a_;
-    MPI_Bcast(s.wall_factor.data(), static_cast<int>(s.wall_factor.size()), MPI_DOUBLE,
-              mac_.slab.ranks - 1, comm_);
+    auto bed = [&](const std::vector<double>& v) {
+      const std::vector<double> own(v.begin() + G, v.begin() + G + nxl);
+      const auto all = mac_.gather_columns(own);
+      std::vector<double> ends(static_cast<std::size_t>(2 * G), 0.0);
+      for (int q = 0; q < G; ++q) {
+        ends[static_cast<std::size_t>(q)] = v[static_cast<std::size_t>(q)];
+        ends[static_cast<std::size_t>(G + q)] = v[static_cast<std::size_t>(nxl + G + q)];
+      }
+      MPI_Bcast(ends.data(), G, MPI_DOUBLE, 0, comm_);
+      MPI_Bcast(ends.data() + G, G, MPI_DOUBLE, mac_.slab.ranks - 1, comm_);
+      std::vector<double> r(ends.begin(), ends.begin() + G);
+      r.insert(r.end(), all.begin(), all.end());
+      r.insert(r.end(), ends.begin() + G, ends.end());
+      return r;
+    };
+    auto wall = [&](std::vector<double> v) {
+      MPI_Bcast(v.data(), static_cast<int>(v.size()), MPI_DOUBLE, mac_.slab.ranks - 1, comm_);
+      return v;
+    };
+    s.bed_factor = bed(bed_a_);
+    s.bed_offset = bed(bed_b_);
+    s.wall_factor = wall(wall_a_);
+    s.wall_offset = wall(wall_b_);
     s.momentum_dt = momentum_dt_;
+    s.friction_dt = friction_dt_;
   }
   s.surface_applied = true;
   return s;
@@ -253,20 +262,28 @@ void NdamSolver::import_state(const NdamState& s) {
     for (int k = 0; k < cfg_.grid.nz; ++k)
       if (mac_.p_unknown(gi, k)) ++fluid_cells_;
   momentum_dt_ = s.momentum_dt;
+  friction_dt_ = s.friction_dt;
   const int G = Field::G, nxl = mac_.slab.nx_local;
   const bool factors = s.bed_factor.size() == static_cast<std::size_t>(cfg_.grid.nx + 2 * G) &&
                        s.wall_factor.size() == static_cast<std::size_t>(cfg_.grid.nz);
-  // the factors the straight run's next step reads: the lagged ones of its last step
-  auto restore_factors = [&] {
+  // the ghosts the straight run's next step reads: the lagged ones of its last step (a state
+  // of a version without the offsets b had b = 0)
+  auto set_factors = [&] {
+    const bool offsets =
+        s.bed_offset.size() == s.bed_factor.size() && s.wall_offset.size() == s.wall_factor.size();
     for (int i = -G; i < nxl + G; ++i) {
       const int gi = mac_.slab.i0 + i;
-      if (gi >= -G && gi < cfg_.grid.nx + G)
-        bed_a_[static_cast<std::size_t>(i + G)] = s.bed_factor[static_cast<std::size_t>(gi + G)];
+      if (gi >= -G && gi < cfg_.grid.nx + G) {
+        const auto f = static_cast<std::size_t>(i + G), g = static_cast<std::size_t>(gi + G);
+        bed_a_[f] = s.bed_factor[g];
+        bed_b_[f] = offsets ? s.bed_offset[g] : 0.0;
+      }
     }
     exchange_bed_factors();
     wall_a_ = s.wall_factor;
+    wall_b_ = offsets ? s.wall_offset : std::vector<double>(wall_a_.size(), 0.0);
   };
-  if (factors) restore_factors();
+  if (factors) set_factors();
   fill_velocity_ghosts(u_, w_, !s.surface_applied);
   fill_scalar_ghosts(p_);
   if (!factors) {
@@ -275,7 +292,7 @@ void NdamSolver::import_state(const NdamState& s) {
     fill_velocity_ghosts(u_, w_);
   }
   update_viscosity(p_);
-  if (factors) restore_factors();  // update_viscosity set them anew: step() reads the lagged ones
+  if (factors) set_factors();  // update_viscosity set them anew: step() reads the lagged ones
   if (markers_) update_profile_cache();
   u_new_ = u_;
   w_new_ = w_;
@@ -318,7 +335,10 @@ void NdamSolver::save(io::Checkpoint& c) const {
   }
   c.set("ndam/bed_factor", s.bed_factor);
   c.set("ndam/wall_factor", s.wall_factor);
+  c.set("ndam/bed_offset", s.bed_offset);
+  c.set("ndam/wall_offset", s.wall_offset);
   c.set("ndam/momentum_dt", s.momentum_dt);
+  c.set("ndam/friction_dt", s.friction_dt);
   c.set("ndam/surface_applied", s.surface_applied ? 1.0 : 0.0);
   // the slabs of a split by the work of the columns (load_balance.cpp): a restart on as many
   // ranks continues on them (its rebuilds then repeat the straight run's)
@@ -361,7 +381,12 @@ void NdamSolver::load(const io::Checkpoint& c) {
   if (c.arrays().count("ndam/bed_factor")) {
     s.bed_factor = c.array("ndam/bed_factor");
     s.wall_factor = c.array("ndam/wall_factor");
+    if (c.arrays().count("ndam/bed_offset")) {
+      s.bed_offset = c.array("ndam/bed_offset");
+      s.wall_offset = c.array("ndam/wall_offset");
+    }
     s.momentum_dt = c.scalar("ndam/momentum_dt");
+    if (c.scalars().count("ndam/friction_dt")) s.friction_dt = c.scalar("ndam/friction_dt");
   }
   s.surface_applied = c.scalars().count("ndam/surface_applied") &&
                       c.scalar("ndam/surface_applied") != 0.0;
@@ -471,6 +496,16 @@ void NdamSolver::report(nlohmann::json& s) const {
                            {"unconverged_steps_continued", stats_.newton_continued},
                            {"worst_residual_continued", stats_.newton_continued_worst},
                            {"seconds", stats_.newton_seconds}};
+  // The Coulomb friction of the momentum step (Newton's method on the step's mean friction
+  // factor, boundaries.cpp): momentum solves beyond the first of a step, the most solves of a
+  // step, and the steps that stopped at the limit with their worst residual (units of the
+  // Coulomb bound tan(delta) N).
+  if (cfg_.momentum == Momentum::Implicit &&
+      (cfg_.walls[1].kind == WallKind::Coulomb || cfg_.walls[2].kind == WallKind::Coulomb))
+    s["ndam"]["friction"] = {{"extra_momentum_solves", stats_.friction_solves},
+                             {"max_solves_per_step", stats_.friction_max_solves},
+                             {"unconverged_steps", stats_.friction_unconverged},
+                             {"worst_unconverged_residual", stats_.friction_worst_residual}};
   // Wall time per phase over the accepted steps (this rank): momentum predictor, pressure
   // solve, markers (advection, injection, flags), and the rest of the step (viscosity,
   // correction, ghost exchange).

@@ -114,8 +114,15 @@ void NdamSolver::setup() {
     momentum_ = std::make_unique<solvers::LinearSystem>(
         comm_, 2LL * nx * nz, 2 * mac_.p_gid(mac_.slab.i0, 0), 2 * nxl * nz, mp);
   }
-  bed_a_.assign(static_cast<std::size_t>(nxl + 2 * Field::G), 1.0);
+  const auto nb = static_cast<std::size_t>(nxl + 2 * Field::G);
+  bed_a_.assign(nb, 1.0);
+  bed_b_.assign(nb, 0.0);
+  bed_q_.assign(nb, 0.0);
+  bed_stuck_.assign(nb, 0);
   wall_a_.assign(static_cast<std::size_t>(nz), 1.0);
+  wall_b_.assign(static_cast<std::size_t>(nz), 0.0);
+  wall_q_.assign(static_cast<std::size_t>(nz), 0.0);
+  wall_stuck_.assign(static_cast<std::size_t>(nz), 0);
 }
 
 // t = 0: the material at rest (the initial layer of the free-surface box, or the whole closed
@@ -149,11 +156,43 @@ void NdamSolver::rest_state() {
   u_new_ = u_;
   w_new_ = w_;
   p_new_ = p_;
+  // the first step from rest: the friction factor of a base that gravity alone accelerates
+  // grows by m_c |g| dt at most (stable_dt)
+  if (cfg_.momentum == Momentum::Implicit && coulomb_walls())
+    friction_dt_ = 1.0 / (cfg_.m_c * std::hypot(phys_.gx, phys_.gz));
   u_star_ = u_;  // the wall load of the initial state (no step yet)
   w_star_ = w_;
 }
 
 NdamSolver::~NdamSolver() = default;
+
+bool NdamSolver::coulomb_walls() const {
+  return cfg_.walls[1].kind == WallKind::Coulomb || cfg_.walls[2].kind == WallKind::Coulomb;
+}
+
+// The growth of the friction factor in the tentative step: max over the Coulomb faces of
+// (|c(u^{n+1})| - |c(u^n)|)^+ with c of (12), as dt_step / growth, the time over which it
+// would grow by 1 at that rate (<= 0: it did not grow). Faces clamped to sticking do not count.
+double NdamSolver::friction_growth_dt() const {
+  const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  const double m = cfg_.m_c;
+  auto c = [m](double u) { return -std::expm1(-m * std::abs(u)); };
+  double growth = 0.0;
+  if (cfg_.walls[2].kind == WallKind::Coulomb)
+    for (int i = 0; i < nxl; ++i) {
+      const auto f = static_cast<std::size_t>(i + G);
+      if (bed_q_[f] > 0.0 && !bed_stuck_[f] && mac_.u_unknown(i, 0))
+        growth = std::max(growth, c(u_new_(i, 0)) - c(u_(i, 0)));
+    }
+  if (cfg_.walls[1].kind == WallKind::Coulomb && mac_.slab.i0 + nxl == cfg_.grid.nx)
+    for (int k = 0; k < nz - 1; ++k) {
+      const auto f = static_cast<std::size_t>(k);
+      if (wall_q_[f] > 0.0 && !wall_stuck_[f] && mac_.w_unknown(nxl - 1, k))
+        growth = std::max(growth, c(w_new_(nxl - 1, k)) - c(w_(nxl - 1, k)));
+    }
+  growth = detail::allreduce_max(growth, comm_);
+  return growth > 0.0 ? (t_new_ - t_) / growth : -1.0;
+}
 
 double NdamSolver::stable_dt() const {
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
@@ -186,6 +225,15 @@ double NdamSolver::stable_dt() const {
     rate = detail::allreduce_max(rate, comm_);
     if (rate > 0.0) dt = std::min(dt, 1.0 / rate);
   }
+  // The start-up of the Coulomb friction (implicit momentum): while a base accelerates from rest
+  // its friction factor c of (12) grows from 0 to 1 within |u| ~ 5 / m_c, i.e. over a few
+  // milliseconds, and the friction impulse of that transient (the plug's offset
+  // ln(1 + c_F / a) / m_c over a t, docs/numerics.md) is only as good as the steps that resolve
+  // it. The step is limited so that c grows by at most CFL per step, at the rate of the last
+  // step (friction_dt_: the time over which it would grow by 1). A base that slows down or keeps
+  // its speed sets no limit: a steady slide (c = 1) and a deposit at rest keep the advective
+  // step, and a base coming to rest at a shock is not held back.
+  if (cfg_.momentum == Momentum::Implicit && friction_dt_ > 0.0) dt = std::min(dt, friction_dt_);
   dt *= cfg_.cfl;
   // Implicit and Newtonian: the dt of the assembled momentum matrix is held (kDtHoldFraction).
   if (cfg_.momentum == Momentum::Implicit && rheo_.newtonian() && momentum_dt_ > 0.0 &&
@@ -317,6 +365,7 @@ core::Health NdamSolver::check() const {
 // The tentative state becomes the state at t^{n+1}: fields, markers and flags, then the
 // free-surface conditions of the new flags on it (Empty cells p = 0, ghost faces, profiles).
 void NdamSolver::accept() {
+  if (cfg_.momentum == Momentum::Implicit && coulomb_walls()) friction_dt_ = friction_growth_dt();
   std::swap(u_, u_new_);
   std::swap(w_, w_new_);
   std::swap(p_, p_new_);

@@ -3,6 +3,10 @@
 // ends built through the same validated parameter lists a scene uses.
 #include "ndam_test_util.hpp"
 
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
 namespace ndam_chute {
 
 using namespace granflow;
@@ -96,6 +100,56 @@ inline double layer_mean_u(const ndam::NdamSolver& s) {
     hs += p.h[q];
   }
   return hs > 0.0 ? sum / hs : 0.0;
+}
+
+/// The plug law of the model's own regularised friction (12): a layer that slides as a rigid
+/// plug from rest on a slope zeta with bed friction delta,
+///   u' = g sin(zeta) - g cos(zeta) tan(delta) (1 - exp(-m_c u)),   u(0) = 0,
+/// integrated by RK4 with steps of 1e-5 s (its error, O(h^4) with the stiffest rate
+/// g cos tan(delta) m_c ~ 500 1/s, is below 1e-12 m/s), sampled at the increasing `times`.
+inline std::vector<double> plug_law(double zeta_deg, double delta_deg, double m_c,
+                                    const std::vector<double>& times, double g = 9.81) {
+  const double z = core::deg2rad(zeta_deg), d = core::deg2rad(delta_deg);
+  const double S = g * std::sin(z), F = g * std::cos(z) * std::tan(d);
+  auto f = [&](double u) { return S + F * std::expm1(-m_c * std::abs(u)); };
+  std::vector<double> out;
+  double u = 0.0, t = 0.0;
+  for (double T : times) {
+    while (t < T - 1e-13) {
+      const double h = std::min(1e-5, T - t);
+      const double k1 = f(u), k2 = f(u + 0.5 * h * k1), k3 = f(u + 0.5 * h * k2),
+                   k4 = f(u + h * k3);
+      u += h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4);
+      t += h;
+    }
+    out.push_back(u);
+  }
+  return out;
+}
+
+/// Steps s to each of the increasing `times` as the app does (dt = min(stable dt, dt_max), the
+/// last two steps before an output split evenly rather than leaving a sliver) and returns
+/// layer_mean_u there; fails the test on an unhealthy step.
+inline std::vector<double> mean_u_at(ndam::NdamSolver& s, const std::vector<double>& times,
+                                     double dt_max) {
+  std::vector<double> u;
+  for (double T : times) {
+    while (s.time() < T - 1e-12) {
+      const double to_target = T - s.time();
+      double dt = std::min(s.stable_dt(), dt_max);
+      if (to_target <= dt) dt = to_target;
+      else if (to_target < 1.5 * dt) dt = 0.5 * to_target;
+      s.step(dt);
+      const auto h = s.check();
+      if (!h.ok) {
+        ADD_FAILURE() << h.quantity << " " << h.reason << " at x = " << h.x;
+        return u;
+      }
+      s.accept();
+    }
+    u.push_back(layer_mean_u(s));
+  }
+  return u;
 }
 
 /// The silo gate (h_in = 4 cm, u_in = 0.37 m/s) feeding an empty 0.3 m Drucker-Prager chute

@@ -4,6 +4,7 @@
 
 #include "granflow/io/fields.hpp"
 #include "granflow/markers/markers.hpp"
+#include "granflow/scene/scene.hpp"
 
 #include <gtest/gtest.h>
 
@@ -64,32 +65,102 @@ TEST(NdamFreeSurface, PoolAtRestStaysFlat) {
   EXPECT_NEAR(p_bottom, expect, 0.01 * expect);
 }
 
-// A Drucker-Prager layer (phi = 33 deg) on a periodic incline (zeta = 50 deg) with Coulomb
-// sliding (delta = 22 deg): sin(phi) > tan(delta), so the basal friction yields before the
-// material does and the layer slides as a rigid plug with a = g cos(zeta) (tan zeta - tan delta)
-// (DESIGN.md section 7). Measured once the base speed is well above 1/m_c = 0.01 m/s (c_F within
-// e^-30 of tan delta): the mean acceleration over [0.2, 0.3] s within 1 %, and the interior
-// shear u_top - u_bottom small against the sliding speed.
-TEST(NdamCoulomb, PeriodicInclineSlidesAsRigidPlug) {
-  FsCase c;
-  auto s = make_fs(c);
-  run_to(*s, 0.2, 0.002);
-  const double u1 = layer_mean_u(*s), t1 = s->time();
-  run_to(*s, 0.3, 0.002);
-  const double u2 = layer_mean_u(*s), t2 = s->time();
-  const double zeta = core::deg2rad(50.0), delta = core::deg2rad(22.0);
-  const double a = 9.81 * std::cos(zeta) * (std::tan(zeta) - std::tan(delta));
-  const double am = (u2 - u1) / (t2 - t1);
-  std::printf("plug: a = %.5f m/s^2, expected %.5f, rel. error %.2e, u_mean = %.4f m/s\n", am, a,
-              std::abs(am - a) / a, u2);
-  EXPECT_NEAR(am, a, 0.01 * a);
-  // interior shear: u of the bottom and top material faces of a column
-  const auto u = s->gather_u();
-  const int top = static_cast<int>(c.depth / (c.lz / c.nz)) - 2;  // last full Fluid row
-  const double ub = u[static_cast<std::size_t>(5 * c.nz + 0)];
-  const double ut = u[static_cast<std::size_t>(5 * c.nz + top)];
-  std::printf("plug: u_bottom = %.5f, u_top = %.5f\n", ub, ut);
-  EXPECT_LT(std::abs(ut - ub), 0.01 * ub);
+// A Drucker-Prager layer released from rest on a periodic incline with a Coulomb bed (issue 11
+// item 1): with sin(phi) > tan(delta) the basal friction yields before the material does, and
+// the layer slides as a rigid plug following the law of the model's own regularised friction
+// (12), u' = g sin(zeta) - g cos(zeta) tan(delta) (1 - exp(-m_c u)) from u(0) = 0 (plug_law;
+// a t plus ln(1 + tan(delta) / (tan(zeta) - tan(delta))) / m_c = 8.1 mm/s for 40/25 deg). The
+// issue's layer (3 cm, dz = 2.5 mm, free surface) with dx = 5 mm (the plug is uniform in x: the
+// issue's 1.25 mm gives the same u(t) to 1e-4, measured; NdamPlugLong runs it), three angle
+// sets: the issue's 40/25/35 and 30/20/30 and one near the plug limit, 40/30/35.5 (sin(phi) =
+// 0.5807 against tan(delta) = 0.5774). At every output from 0.05 s to 1 s, at the CFL step
+// (CFL 0.5, Max time step 0.01 s) and at half of it:
+// - u_mean within the issue's 1 % of the law (measured at most 0.18 %, at 0.05 s near the plug
+//   limit; the lagged drag beta(u^n) u^{n+1} this replaces was 47 % slow at 0.05 s, 3.5 % at 1 s);
+// - the error does not grow when dt halves (measured: it shrinks by 1.3-1.5x at 0.05 s; a
+//   dt-independent remainder of 0.04-0.09 % at 0.05 s is the creep of the regularised
+//   rheology inside the layer, see NdamPlugLong for the observed order);
+// - the layer is a plug: u_top - u_bottom of a column within 1 % of the base speed at 1 s.
+TEST(NdamCoulomb, PlugFromRestFollowsTheRegularisedLaw) {
+  struct Angles {
+    double zeta, delta, phi;
+  };
+  std::vector<double> times;
+  for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
+  for (const Angles& an : {Angles{40, 25, 35}, Angles{30, 20, 30}, Angles{40, 30, 35.5}}) {
+    const auto law = plug_law(an.zeta, an.delta, 100.0, times);
+    std::vector<double> err[2];
+    for (int half = 0; half < 2; ++half) {
+      FsCase c;
+      c.nx = 4;
+      c.lx = 0.02;
+      c.nz = 24;
+      c.lz = 0.06;
+      c.depth = 0.03;
+      c.slope_deg = an.zeta;
+      c.delta_deg = an.delta;
+      c.phi_deg = an.phi;
+      c.m_c = 100.0;
+      c.cfl = half ? 0.25 : 0.5;
+      auto s = make_fs(c);
+      const auto u = mean_u_at(*s, times, 0.01);
+      ASSERT_EQ(u.size(), times.size());
+      for (std::size_t q = 0; q < times.size(); ++q) {
+        err[half].push_back(u[q] / law[q] - 1.0);
+        EXPECT_LT(std::abs(err[half][q]), 0.01)
+            << an.zeta << "/" << an.delta << "/" << an.phi << " CFL " << c.cfl << " t = "
+            << times[q] << ": u_mean " << u[q] << " law " << law[q];
+      }
+      const auto uf = s->gather_u();
+      const int top = static_cast<int>(c.depth / (c.lz / c.nz)) - 2;  // last full Fluid row
+      const double ub = uf[static_cast<std::size_t>(c.nz)], ut = uf[static_cast<std::size_t>(c.nz + top)];
+      EXPECT_LT(std::abs(ut - ub), 0.01 * ub);
+      std::printf("plug %g/%g/%g CFL %.2f: u_mean/law - 1 = %+.4f %% (0.05 s) %+.4f %% (0.5 s) "
+                  "%+.4f %% (1 s); u_top - u_bottom %.2e m/s at u = %.3f m/s\n",
+                  an.zeta, an.delta, an.phi, c.cfl, 100 * err[half][0], 100 * err[half][9],
+                  100 * err[half][19], ut - ub, ub);
+    }
+    // halving dt: the error at each output does not grow (1e-5: round-off of u / law)
+    for (std::size_t q = 0; q < times.size(); ++q)
+      EXPECT_LE(std::abs(err[1][q]), std::abs(err[0][q]) + 1e-5)
+          << an.zeta << "/" << an.delta << " t = " << times[q];
+  }
+}
+
+// The same on the issue's own grid (8 x 24 cells of 1.25 x 2.5 mm), 40/25/35 deg, at CFL 0.5,
+// 0.25, 0.125 (label `long`, about 45 s): u_mean within 1 % of the plug law at every output
+// from 0.05 s to 1 s at each dt, and the observed order of the differences between successive
+// dt, p = log2(|u_0.5 - u_0.25| / |u_0.25 - u_0.125|), positive at every output (measured
+// 1.38 at every output: the start-up error the step limit leaves, O(dt^1.4), carried along).
+TEST(NdamPlugLong, IssueGridConvergesAsDtHalves) {
+  std::vector<double> times;
+  for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
+  const auto law = plug_law(40, 25, 100.0, times);
+  std::vector<std::vector<double>> u;
+  for (double cfl : {0.5, 0.25, 0.125}) {
+    FsCase c;
+    c.nx = 8;
+    c.lx = 0.01;
+    c.nz = 24;
+    c.lz = 0.06;
+    c.depth = 0.03;
+    c.slope_deg = 40;
+    c.delta_deg = 25;
+    c.phi_deg = 35;
+    c.cfl = cfl;
+    auto s = make_fs(c);
+    u.push_back(mean_u_at(*s, times, 0.01));
+    ASSERT_EQ(u.back().size(), times.size());
+    for (std::size_t q = 0; q < times.size(); ++q)
+      EXPECT_LT(std::abs(u.back()[q] / law[q] - 1.0), 0.01) << "CFL " << cfl << " t = " << times[q];
+  }
+  for (std::size_t q = 0; q < times.size(); ++q) {
+    const double p = std::log2(std::abs(u[0][q] - u[1][q]) / std::abs(u[1][q] - u[2][q]));
+    std::printf("plug (issue grid) t = %.2f s: error %+.4f / %+.4f / %+.4f %%, observed order %.2f\n",
+                times[q], 100 * (u[0][q] / law[q] - 1), 100 * (u[1][q] / law[q] - 1),
+                100 * (u[2][q] / law[q] - 1), p);
+    EXPECT_GT(p, 0.5) << "t = " << times[q];
+  }
 }
 
 // The Newtonian limit with Coulomb slip (DESIGN.md section 7): the layer accelerates uniformly
@@ -256,4 +327,97 @@ TEST(NdamChute, CheckpointRestartReproducesStraightRun) {
   EXPECT_EQ(a->mass_balance().current, b->mass_balance().current);
   EXPECT_EQ(a->mass_balance().inflow, b->mass_balance().inflow);
   EXPECT_GT(a->mass_balance().current, 0.0);
+}
+
+namespace {
+// The shipped column collapse (inputs/ndam_column_collapse.xml) at 10 mm (50 x 25 cells) with
+// the given m_c; per output every 0.05 s to 1.5 s: the front (the last column with h > 1 mm, its
+// right edge) and the rms speed of the material cells (Fluid and Surface; cell-centre u, w from
+// the face means).
+struct CollapseLog {
+  std::vector<double> t, front, rms;
+};
+CollapseLog column_collapse(double m_c) {
+  auto sc = scene::load(std::string(GRANFLOW_INPUTS) + "/ndam_column_collapse.xml");
+  auto& n = sc.params->sublist("N-DAM");
+  n.set("Cells x", 50);
+  n.set("Cells z", 25);
+  n.set("Friction regularisation", m_c);
+  auto model = scene::build_model(sc);
+  auto* s = dynamic_cast<ndam::NdamSolver*>(model.get());
+  CollapseLog log;
+  if (!s) {
+    ADD_FAILURE() << "not an N-DAM model";
+    return log;
+  }
+  const int nx = 50, nz = 25;
+  for (int q = 1; q <= 30; ++q) {
+    const double t = 0.05 * q;
+    if (mean_u_at(*s, {t}, 0.01).empty()) return log;
+    const auto p = s->profile();
+    double front = 0.0;
+    for (std::size_t c = 0; c < p.x.size(); ++c)
+      if (p.h[c] > 1e-3) front = p.x[c] + 0.005;
+    const auto u = s->gather_u(), w = s->gather_w();
+    double sum = 0.0;
+    int cells = 0;
+    for (int gi = 0; gi < nx; ++gi)
+      for (int k = 0; k < nz; ++k) {
+        const auto f = s->flag(gi, k);
+        if (f != ndam::CellFlag::Fluid && f != ndam::CellFlag::Surface) continue;
+        const auto at = [nz](int i, int kk) { return static_cast<std::size_t>(i * nz + kk); };
+        const double uc = 0.5 * (u[at(gi, k)] + (gi > 0 ? u[at(gi - 1, k)] : 0.0));
+        const double wc = 0.5 * (w[at(gi, k)] + (k > 0 ? w[at(gi, k - 1)] : 0.0));
+        sum += uc * uc + wc * wc;
+        ++cells;
+      }
+    log.t.push_back(t);
+    log.front.push_back(front);
+    log.rms.push_back(std::sqrt(sum / std::max(cells, 1)));
+  }
+  return log;
+}
+}  // namespace
+
+// A deposit at rest stays at rest to within the creep of the regularisations (issue 11 item 2):
+// the column collapse of inputs/ndam_column_collapse.xml (a = 2, horizontal Coulomb bed, phi =
+// 30, delta = 28 deg) at 10 mm stops spreading by 0.5 s (measured: the front at 0.34 m from
+// 0.45 s on). At rest the regularised laws still creep: the base slides at
+// u_b = ln(1 / (1 - r_b)) / m_c where its friction is the fraction r_b of tan(delta) N (12), and
+// the material shears at ||D|| = ln(1 / (1 - r)) / m_y where its stress is the fraction r of the
+// yield stress (5). With both fractions below 1 - 1/e the deposit (height H = 0.12 m) creeps
+// below the bound u_c = 1 / m_c + H / m_y = 1.1 cm/s. Asserted at every output from 0.6 s to
+// 1.5 s: the rms speed of the material below u_c (measured 3.8-7.4 mm/s), the front within one
+// cell of where it stopped; and the creep is the regularisation's: with m_c = 1000 s/m the mean
+// rms speed over those outputs is at most 0.7 of that at m_c = 100 s/m (measured 0.54; the rest
+// is the internal creep and the noise of the surface cells, whose single-cell speeds reach
+// 1-5 cm/s at flag changes, docs/validation.md). About 2.5 s for the two runs.
+TEST(NdamDeposit, ColumnCollapseComesToRestWithinTheCreepBound) {
+  const double u_c = 1.0 / 100.0 + 0.12 / 100.0;
+  const auto a = column_collapse(100.0);
+  ASSERT_EQ(a.t.size(), 30u);
+  double front_stop = -1.0, mean_a = 0.0;
+  int n = 0;
+  for (std::size_t q = 0; q < a.t.size(); ++q) {
+    std::printf("column collapse t = %.2f s: front %.3f m, rms speed %.4f m/s\n", a.t[q],
+                a.front[q], a.rms[q]);
+    if (a.t[q] < 0.6 - 1e-9) continue;
+    if (front_stop < 0.0) front_stop = a.front[q];
+    EXPECT_LT(a.rms[q], u_c) << "t = " << a.t[q];
+    EXPECT_NEAR(a.front[q], front_stop, 0.01 + 1e-9) << "t = " << a.t[q];
+    mean_a += a.rms[q];
+    ++n;
+  }
+  // runout (r_inf - r0) / r0 of the a = 2 column: within the planar laws' 1.2 a = 2.4 and
+  // 1.9 a^(2/3) = 3.0 to 25 % (the 10 mm grid; 2.5 mm: 2.3, docs/validation.md)
+  EXPECT_GT((front_stop - 0.1) / 0.1, 0.75 * 2.4);
+  EXPECT_LT((front_stop - 0.1) / 0.1, 1.25 * 3.0);
+  const auto b = column_collapse(1000.0);
+  ASSERT_EQ(b.t.size(), 30u);
+  double mean_b = 0.0;
+  for (std::size_t q = 0; q < b.t.size(); ++q)
+    if (b.t[q] > 0.6 - 1e-9) mean_b += b.rms[q];
+  std::printf("column collapse: mean rms speed from 0.6 s %.4f (m_c = 100) / %.4f m/s (m_c = 1000)\n",
+              mean_a / n, mean_b / n);
+  EXPECT_LT(mean_b, 0.7 * mean_a);
 }

@@ -64,33 +64,24 @@ TEST(NdamPressureNewton, NonlinearAndLaggedCouplingAgreeToOneStepLag) {
   EXPECT_LT(du, 5e-3);
 }
 
-// With the nonlinear coupling the Drucker-Prager layer on the periodic Coulomb incline still
-// slides as a rigid plug at g cos(zeta) (tan zeta - tan delta) (the same 1 % as the lagged test
-// in test_ndam_chute.cpp: at steady sliding p is hydrostatic, so both couplings must agree),
-// and every Newton solve converges (check() would stop the step otherwise).
+// With the nonlinear coupling the Drucker-Prager layer on the periodic Coulomb incline (50/22/33
+// deg, 5 cm, 1 cm cells) still slides as a rigid plug from rest along the law of the
+// regularised friction (plug_law), within the same 1 % at every output to 0.3 s as the lagged
+// test (in a plug p is hydrostatic, so both couplings must agree), and every Newton solve
+// converges (check() would stop the step otherwise).
 TEST(NdamPressureNewton, PlugSlidesWithNonlinearCoupling) {
   ndam_chute::FsCase c;
   c.coupling = "Nonlinear";
   auto s = ndam_chute::make_fs(c);
-  double u1 = 0.0, t1 = 0.0;
-  while (s->time() < 0.3 - 1e-12) {
-    const double dt = std::min({s->stable_dt(), 0.002, 0.3 - s->time()});
-    s->step(dt);
-    const auto h = s->check();
-    ASSERT_TRUE(h.ok) << h.quantity << ": " << h.reason;
-    ASSERT_TRUE(s->last_newton_solve().converged);
-    s->accept();
-    if (std::abs(s->time() - 0.2) < 1e-9) {
-      u1 = ndam_chute::layer_mean_u(*s);
-      t1 = s->time();
-    }
+  const std::vector<double> times{0.05, 0.1, 0.15, 0.2, 0.25, 0.3};
+  const auto law = ndam_chute::plug_law(c.slope_deg, c.delta_deg, c.m_c, times);
+  const auto u = ndam_chute::mean_u_at(*s, times, 0.01);
+  ASSERT_EQ(u.size(), times.size());
+  for (std::size_t q = 0; q < times.size(); ++q) {
+    std::printf("nonlinear plug t = %.2f s: u_mean %.5f m/s, law %.5f (%+.3f %%)\n", times[q],
+                u[q], law[q], 100 * (u[q] / law[q] - 1));
+    EXPECT_NEAR(u[q], law[q], 0.01 * law[q]) << "t = " << times[q];
   }
-  ASSERT_GT(t1, 0.0);
-  const double zeta = core::deg2rad(50.0), delta = core::deg2rad(22.0);
-  const double a = 9.81 * std::cos(zeta) * (std::tan(zeta) - std::tan(delta));
-  const double am = (ndam_chute::layer_mean_u(*s) - u1) / (s->time() - t1);
-  std::printf("nonlinear plug: a = %.5f m/s^2, expected %.5f\n", am, a);
-  EXPECT_NEAR(am, a, 0.01 * a);
   EXPECT_GT(s->newton_solves(), 0);
 }
 

@@ -35,6 +35,7 @@ struct Measured {
   double rest_mean = 0.0;         // mean N / W over [0.5, 1] s
   double rest_momentum = 0.0;     // max |rho P| over [0.5, 1] s
   double shear_ratio = 0.0;       // max |S| / (tan(delta) N)
+  double shear_ratio_step = 0.0;  // max |S| / (tan(delta) max(N^n, N)), N^n: the last step's N
   double field_mismatch = 0.0;    // max |F - rho sum (p + g sin(zeta) dx/2) dz| / W
   double foot_mismatch = 0.0;     // max |p_foot - rho p(nx-1, 0)| [Pa]
   double t_contact = -1.0;
@@ -64,7 +65,7 @@ Measured drop_block(int cells_per_cm, double cfl) {
   const double dx = grid.dx(), dz = grid.dz();
   const double P0 = box_momentum(*s);
   Measured m;
-  double impulse = 0.0, rest_n = 0.0, rest_t = 0.0;
+  double impulse = 0.0, rest_n = 0.0, rest_t = 0.0, n_last = 0.0;
   while (s->time() < 1.0 - 1e-12) {
     const double dt = std::min({s->stable_dt(), 0.01, 1.0 - s->time()});
     s->step(dt);
@@ -102,18 +103,22 @@ Measured drop_block(int cells_per_cm, double cfl) {
       rest_n += w->normal / W * dt;
       rest_t += dt;
     }
-    if (w->normal > 0.0)
+    if (w->normal > 0.0) {
       m.shear_ratio = std::max(m.shear_ratio, std::abs(w->shear) / (tan_delta * w->normal));
+      m.shear_ratio_step = std::max(
+          m.shear_ratio_step, std::abs(w->shear) / (tan_delta * std::max(w->normal, n_last)));
+    }
+    n_last = w->normal;
   }
   m.rest_mean = rest_t > 0.0 ? rest_n / rest_t : 0.0;
   std::printf("[measured] block into the wall, %d cells/cm, CFL %.2f, %d steps: contact at "
               "%.4f s, rho P at impact %.3f N s/m, impulse residual (to 0.4 s) %.3f N s/m "
               "(%.2f %%); at rest (0.5-1 s): |rho P| <= %.2e N s/m, N/W mean %.4f, max "
-              "|N/W - 1| %.4f; max |S|/(tan(delta) N) %.3f; F vs the pressure field %.1e W, "
-              "p_foot %.1e Pa\n",
+              "|N/W - 1| %.4f; max |S|/(tan(delta) N) %.3f, with max(N^n, N) %.3f; F vs the "
+              "pressure field %.1e W, p_foot %.1e Pa\n",
               cells_per_cm, cfl, m.steps, m.t_contact, m.momentum_max, m.impulse_residual,
               100.0 * m.impulse_residual / m.momentum_max, m.rest_momentum, m.rest_mean,
-              m.rest_dev, m.shear_ratio, m.field_mismatch, m.foot_mismatch);
+              m.rest_dev, m.shear_ratio, m.shear_ratio_step, m.field_mismatch, m.foot_mismatch);
   return m;
 }
 
@@ -126,22 +131,29 @@ Measured drop_block(int cells_per_cm, double cfl) {
 //  - wall.csv's force is the integral of the wall column's pressure field and p_foot its bottom
 //    cell (the same numbers, to round-off of the sum);
 //  - through the impact (to 0.4 s) the wall's impulse is the momentum the block loses:
-//    |rho (P - P0) - int (rho g sin(zeta) A - N) dt| <= 5 % of rho P at impact (measured 1.0 /
-//    1.2 / 1.7 %, and 3.8 % at 5 mm with CFL 0.25: the momentum of the markers' profile is not
+//    |rho (P - P0) - int (rho g sin(zeta) A - N) dt| <= 5 % of rho P at impact (measured 3.6 /
+//    1.6 / 1.5 % with the friction in time of issue 11, 1.0 / 1.2 / 1.7 % with the lagged drag
+//    before it, and 3.8 % at 5 mm with CFL 0.25: the momentum of the markers' profile is not
 //    the momentum of the faces while the material splashes up the wall, and cells changing
 //    flag change the faces that carry it);
 //  - at rest (0.5-1 s) the wall carries the block's whole downslope weight: N = rho g sin(zeta)
-//    A within 7 % at every step (measured at most 3.6 %, 5.4 % at 5 mm with CFL 0.25: the
+//    A within 7 % at every step (measured 1.4 / 4.9 / 5.9 %, 5.4 % at 5 mm with CFL 0.25: the
 //    viscous normal stress of the nearly rigid wall cells, 2 nu_eff u*_x with
 //    nu_eff ~ tau_y m_y, jitters from step to step) and within 2 % on average over the 0.5 s
-//    (measured 0.3 to 0.9 %, 1.5 % at 5 mm with CFL 0.25). The pressure alone is not that load:
+//    (measured 0.03 / 0.4 / 1.6 %, 1.5 % at 5 mm with CFL 0.25). The pressure alone is not that load:
 //    rho int p dz is 1.2-1.5 W here, the pile's deviatoric stress carries the difference;
-//  - the Coulomb end wall: |S| <= tan(delta) N (the friction law (12)-(13) bounds the wall
-//    shear by tan(delta) times the normal stress face by face; measured at most 0.70).
+//  - the Coulomb end wall: the friction law (12)-(13) bounds the wall shear by tan(delta) times
+//    the normal stress face by face, with N lagged at t^n (boundaries.cpp) and the step's mean
+//    friction factor (|c| <= 1): |S| <= tan(delta) max(N^n, N^{n+1}) at every step (N^n: the
+//    last step's wall load; measured at most 0.95 / 0.95 / 0.96). Against N^{n+1} alone the
+//    lag shows where the wall unloads fast after the impact peak (N falls by 20-35 % per step
+//    at 0.145-0.151 s): measured 1.19 / 1.04 / 0.96, so asserted <= 1.25 and, as a first-order
+//    lag must, the excess over 1 shrinks at least by half when dt halves (0.19 -> 0.04).
 // With the viscous stress of u^{n+1} instead of the step's u* (the projection moves u by
 // dt grad phi, and nu_eff dt / dx^2 reaches 10^3 in the pile) the impulse residual was 36 % and
 // 66 % at 1 cm and 5 mm: this test fails on that definition.
 TEST(NdamWall, BlockIntoWallTransfersItsMomentumThenItsWeight) {
+  double excess[2] = {0.0, 0.0};  // |S| / (tan(delta) N) - 1 at 1 cm, CFL 0.5 and 0.25
   for (const auto& [res, cfl] : {std::pair{1, 0.5}, std::pair{1, 0.25}, std::pair{2, 0.5}}) {
     SCOPED_TRACE("cells per cm " + std::to_string(res) + ", CFL " + std::to_string(cfl));
     const Measured m = drop_block(res, cfl);
@@ -154,6 +166,9 @@ TEST(NdamWall, BlockIntoWallTransfersItsMomentumThenItsWeight) {
     EXPECT_LT(m.rest_momentum, 0.01 * m.momentum_max);  // it is at rest
     EXPECT_LT(m.rest_dev, 0.07);
     EXPECT_NEAR(m.rest_mean, 1.0, 0.02);
-    EXPECT_LE(m.shear_ratio, 1.0);
+    EXPECT_LE(m.shear_ratio_step, 1.0);
+    EXPECT_LE(m.shear_ratio, 1.25);
+    if (res == 1) (cfl == 0.5 ? excess[0] : excess[1]) = std::max(0.0, m.shear_ratio - 1.0);
   }
+  EXPECT_LE(excess[1], 0.5 * excess[0]);
 }

@@ -10,7 +10,8 @@
 // step() reads as this box, each line in its own file of src/ndam/:
 //   gate_state         the inflow of the step, h_in and u_in (inflow.cpp, eqs. 24-27)
 //   update_viscosity   nu_eff(u^n, p^n) (viscosity.cpp, eqs. 4-6) and the Coulomb ghost
-//                      factors of the sliding law (boundaries.cpp, eqs. 11-13)
+//                      factors of the sliding law (boundaries.cpp, eqs. 11-13; the momentum
+//                      step iterates them to the step's mean friction factor)
 //   surface_conditions Dirichlet values of the Surface/Empty cells (free_surface.cpp)
 //   predict_velocity   u* = u^n + dt (-(u.grad)u + g - grad p^n + div(2 nu_eff D(u)))
 //                      the viscous stress explicit (u^n) or implicit (u*, nu_eff lagged at t^n)
@@ -193,7 +194,10 @@ class NdamSolver final : public core::Stepper {
   void fill_velocity_ghosts(Field& u, Field& w, bool surface_rules = true) const;
   void boundary_faces(Field& u, Field& w) const;
   void fill_scalar_ghosts(Field& s) const;
-  void update_friction(const Field& p_yield);
+  void update_friction(const Field& p_yield);  // Coulomb ghosts: tangent of (12) at u^n
+  double relinearise_friction(const Field& us, const Field& ws,  // Newton on the friction
+                              const std::function<bool(double, double)>& iterate,
+                              bool& relinearised);
   void exchange_bed_factors();
   // --- inflow.cpp: the silo gate and the 1D-to-2D interface (eqs. 24-27) -------------------
   void gate_state(double dt);
@@ -233,6 +237,7 @@ class NdamSolver final : public core::Stepper {
   void project_at(const std::vector<double>& q, double dt);  // P(q): tau_y, (13) at q
   void solve_pressure_system(double dt);  // 'Nonlinear': NOX on R(q) = q - P(q)
   bool pressure_dependent() const;  // tau_p != 0 or a Coulomb side: the system is nonlinear
+  bool coulomb_walls() const;       // a Coulomb bed or end wall
 
   MPI_Comm comm_;
   NdamConfig cfg_;
@@ -262,8 +267,14 @@ class NdamSolver final : public core::Stepper {
   bool flags_changed_ = true;
   bool has_obstacles_ = false;
 
-  // boundaries: Coulomb ghost factors of u(i,-1) (local columns + G) and of w(nx, k)
-  std::vector<double> bed_a_, wall_a_;
+  // boundaries: the Coulomb ghosts u(i,-1) = a u(i,0) + b (local columns + G) and
+  // w(nx, k) = a w(nx-1, k) + b; q = dz tan(delta) N / nu_b of each face (dx ... at the wall;
+  // 0: no friction there) and whether its ghost is clamped to sticking (update_friction)
+  std::vector<double> bed_a_, bed_b_, wall_a_, wall_b_, bed_q_, wall_q_;
+  std::vector<std::uint8_t> bed_stuck_, wall_stuck_;
+  // dt over which the friction factor of the last step grew by 1 (stable_dt; <= 0: no limit)
+  double friction_dt_ = -1.0;
+  double friction_growth_dt() const;  // that of the tentative step (collective)
 
   // the gate / 1D-to-2D inflow
   std::array<double, 2> inflow_now_{0.0, 0.0};  // {h_in, u_in} of the current step

@@ -22,9 +22,14 @@ struct NdamState {
   double mass0 = 0.0;                        ///< marker area at t = 0 [m^2]
   double inflow_owed = 0.0;                  ///< inflow mass carried to later steps [m^2]
   // lagged factors the next step's ghost values read (empty: computed from this state)
-  std::vector<double> bed_factor;   ///< Coulomb ghost factor of u(gi, -1), gi = -G .. nx + G - 1
-  std::vector<double> wall_factor;  ///< Coulomb ghost factor of w(nx, k), k = 0 .. nz - 1
+  // (the Coulomb ghosts are affine: u(gi, -1) = a u(gi, 0) + b, w(nx, k) = a w(nx - 1, k) + b)
+  std::vector<double> bed_factor;   ///< a of u(gi, -1), gi = -G .. nx + G - 1
+  std::vector<double> bed_offset;   ///< b of u(gi, -1) [m/s] (empty: 0)
+  std::vector<double> wall_factor;  ///< a of w(nx, k), k = 0 .. nz - 1
+  std::vector<double> wall_offset;  ///< b of w(nx, k) [m/s] (empty: 0)
   double momentum_dt = -1.0;        ///< dt of the assembled momentum matrix (Newtonian reuse)
+  /// the step limit of the Coulomb friction's start-up (NdamSolver::stable_dt) [s]; <= 0: none
+  double friction_dt = -1.0;
   /// u and w already hold the free-surface conditions of the markers' flags (an exported state):
   /// loading does not apply them again (they are not idempotent).
   bool surface_applied = false;

@@ -14,6 +14,7 @@
 
 #include <Teuchos_ParameterList.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -29,6 +30,53 @@ inline constexpr double kRegularisationSeries = 1e-8;
 inline double regularised_inverse(double m, double s) {
   const double x = m * s;
   return x < kRegularisationSeries ? m * (1.0 - 0.5 * x) : -std::expm1(-x) / s;
+}
+
+/// The Coulomb factor of a time step (eq. 12 in time; docs/numerics.md, "Coulomb friction in
+/// time"): with c(u) = sgn(u) (1 - exp(-m |u|)), the factor of tan(delta) in (12), the friction
+/// of a step in which the base velocity goes from u0 to u1 is the mean of c over the velocities
+/// passed,
+///   c_mean(u0, u1) = (C(u1) - C(u0)) / (u1 - u0),   C(u) = |u| - (1 - exp(-m |u|)) / m  (C' = c),
+/// i.e. the friction work of the step is exactly tan(delta) N (C(u1) - C(u0)) (a discrete
+/// gradient). |c_mean| <= 1: the stress never exceeds the Coulomb bound tan(delta) N, and
+/// c_mean(u, u) = c(u) (the exact stress of a steady slide). `dc` is d c_mean / d u1 (>= 0, c is
+/// increasing), the slope of its linearisation in u1 (Newton's method on the step).
+struct CoulombMean {
+  double c = 0.0, dc = 0.0;
+};
+namespace detail {
+/// (1 - (1 + x) e^-x) / x^2 and (x - 1 + e^-x) / x^2 for x >= 0, both -> 1/2 as x -> 0; below
+/// x = 1e-2 their Taylor series to x^3 (the next terms, x^4 / 144 and x^4 / 720, are below
+/// 1e-10, while the closed forms lose about 1e-16 / x^2 to cancellation).
+inline double coulomb_psi1(double x) {
+  return x < 1e-2 ? 0.5 - x / 3.0 + x * x / 8.0 - x * x * x / 30.0
+                  : (-std::expm1(-x) - x * std::exp(-x)) / (x * x);
+}
+inline double coulomb_psi2(double x) {
+  return x < 1e-2 ? 0.5 - x / 6.0 + x * x / 24.0 - x * x * x / 120.0
+                  : (x + std::expm1(-x)) / (x * x);
+}
+}  // namespace detail
+inline CoulombMean coulomb_mean(double m, double u0, double u1) {
+  CoulombMean r;
+  if (u0 * u1 >= 0.0) {
+    // one sign: with a = s u0, b = s u1 >= 0 and lo = min(a, b), x = m |b - a|,
+    //   c_mean = s (1 - e^{-m lo} (1 - e^-x) / x)   (no cancellation as u1 -> u0),
+    //   dc = m e^{-m lo} psi1(x) (b >= a)  or  m e^{-m lo} psi2(x) (b < a)
+    const double s = u0 + u1 >= 0.0 ? 1.0 : -1.0;
+    const double a = s * u0, b = s * u1, lo = std::min(a, b), x = m * std::abs(b - a);
+    const double e = std::exp(-m * lo);
+    r.c = s * (1.0 - e * regularised_inverse(1.0, x));
+    r.dc = m * e * (b >= a ? detail::coulomb_psi1(x) : detail::coulomb_psi2(x));
+    return r;
+  }
+  // opposite signs: |u1 - u0| = |u0| + |u1| > 0; C(u) = m u^2 psi2(m |u|) (even, no cancellation)
+  auto C = [m](double u) { return m * u * u * detail::coulomb_psi2(m * std::abs(u)); };
+  const double du = u1 - u0;
+  r.c = (C(u1) - C(u0)) / du;
+  const double c1 = (u1 > 0.0 ? 1.0 : -1.0) * -std::expm1(-m * std::abs(u1));
+  r.dc = std::max(0.0, (c1 - r.c) / du);
+  return r;
 }
 
 /// The default is the paper's: Drucker-Prager for dry grains (no cohesion) of the default

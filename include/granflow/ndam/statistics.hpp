@@ -21,6 +21,13 @@ struct NdamStatistics {
   long long retired_pressure_patterns = 0, retired_momentum_patterns = 0;
   double retired_pressure_setup_seconds = 0.0, retired_momentum_setup_seconds = 0.0;
 
+  // the Coulomb friction of the step (Newton's method in the momentum step): solves beyond the
+  // first of a step, the most solves of a step, steps that stopped at the limit and their worst
+  // residual (in units of the Coulomb bound)
+  long long friction_solves = 0, friction_unconverged = 0;
+  int friction_max_solves = 0;
+  double friction_worst_residual = 0.0;
+
   // the nonlinear pressure system (NOX), 'Pressure coupling' = Nonlinear
   long long newton_solves = 0, newton_iterations = 0, newton_krylov = 0, newton_evaluations = 0;
   int newton_max_iterations = 0;
@@ -59,6 +66,10 @@ struct NdamStatistics {
     retired_momentum_patterns += o.retired_momentum_patterns;
     retired_pressure_setup_seconds += o.retired_pressure_setup_seconds;
     retired_momentum_setup_seconds += o.retired_momentum_setup_seconds;
+    friction_solves += o.friction_solves;
+    friction_unconverged += o.friction_unconverged;
+    friction_max_solves = std::max(friction_max_solves, o.friction_max_solves);
+    friction_worst_residual = std::max(friction_worst_residual, o.friction_worst_residual);
     newton_solves += o.newton_solves;
     newton_iterations += o.newton_iterations;
     newton_krylov += o.newton_krylov;
