@@ -310,7 +310,7 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
         const std::size_t n_cells = to->h.size();
         const std::size_t c0 = at_end ? n_cells - 1 : 0, c1 = at_end ? n_cells - 2 : 1;
         const double w0 = to->staggered ? 0.5 * dx : dx, w1 = n_cells > 1 ? dx : 0.0;
-        for (const auto [c, w] : {std::pair<std::size_t, double>{c0, w0}, {c1, w1}}) {
+        for (const auto& [c, w] : {std::pair<std::size_t, double>{c0, w0}, {c1, w1}}) {
           if (!(w > 0.0)) continue;
           const double dh = mine * (w / (w0 + w1)) / w;
           const double u = to->h[c] > 0.0 ? to->hu[c] / to->h[c] : 0.0;
