@@ -171,6 +171,22 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "system has no nearby root (measured: the free surface at the end wall of Setup "
              "II)",
              {"Stop", "Continue"});
+    add_enum(*pl, "Pressure iteration",
+             d.pressure_iteration == PressureIteration::Anderson ? "Anderson fixed point"
+                                                                 : "Newton-Krylov",
+             "solver of the nonlinear pressure system ('Pressure coupling' = Nonlinear): "
+             "Newton-Krylov: NOX's Jacobian-free Newton-Krylov ('Pressure Newton' list); "
+             "Anderson fixed point: q <- P(q) with Anderson mixing of the last 'Anderson depth' "
+             "iterates, one predictor-projection per iteration (on Setup II a third of "
+             "Newton's projections per step; it meets the same cells without a root, "
+             "docs/numerics.md). Both use the tolerances and the iteration limit of "
+             "'Pressure Newton' (Absolute tolerance, Relative tolerance, Max Newton iterations) "
+             "and its Verbose flag",
+             {"Newton-Krylov", "Anderson fixed point"});
+    add_int(*pl, "Anderson depth", d.anderson_depth,
+            "'Pressure iteration' = Anderson fixed point: how many previous iterates the "
+            "Anderson mixing combines (0: the plain fixed-point iteration q <- P(q))",
+            0, 50);
     return pl;
   }();
   return valid;
@@ -308,6 +324,10 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                             : PressureCoupling::Lagged;
   c.pressure_newton = pl.sublist("Pressure Newton");
   c.newton_failure_continue = pl.get<std::string>("Pressure Newton failure") == "Continue";
+  c.pressure_iteration = pl.get<std::string>("Pressure iteration") == "Newton-Krylov"
+                             ? PressureIteration::NewtonKrylov
+                             : PressureIteration::Anderson;
+  c.anderson_depth = pl.get<int>("Anderson depth");
   if (c.pressure_newton.get<std::string>("Method") != "Jacobian-free Newton-Krylov")
     params::fail(pl.sublist("Pressure Newton"), "Method", c.pressure_newton.get<std::string>("Method"),
                  "the pressure system's residual contains the momentum and pressure solves, so "

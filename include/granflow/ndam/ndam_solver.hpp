@@ -223,7 +223,9 @@ class NdamSolver final : public core::Stepper {
   double max_abs_divergence(const Field& u, const Field& w) const;  // collective
   // --- pressure_system.cpp: the nonlinear pressure system (NOX) --------------------------------
   void project_at(const std::vector<double>& q, double dt);  // P(q): tau_y, (13) at q
-  void solve_pressure_system(double dt);  // 'Nonlinear': NOX on R(q) = q - P(q)
+  void solve_pressure_system(double dt);  // 'Nonlinear': the root of R(q) = q - P(q)
+  // 'Pressure iteration' = Anderson fixed point: q <- P(q) with Anderson mixing
+  solvers::NonlinearStats anderson_fixed_point(std::vector<double>& q, double dt);
   bool pressure_dependent() const;  // tau_p != 0 or a Coulomb side: the system is nonlinear
 
   MPI_Comm comm_;
