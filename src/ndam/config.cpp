@@ -175,14 +175,13 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              d.pressure_iteration == PressureIteration::Anderson ? "Anderson fixed point"
                                                                  : "Newton-Krylov",
              "solver of the nonlinear pressure system ('Pressure coupling' = Nonlinear): "
-             "Newton-Krylov: NOX's Jacobian-free Newton-Krylov ('Pressure Newton' list); "
              "Anderson fixed point: q <- P(q) with Anderson mixing of the last 'Anderson depth' "
-             "iterates, one predictor-projection per iteration (on Setup II a third of "
-             "Newton's projections per step; it meets the same cells without a root, "
-             "docs/numerics.md). Both use the tolerances and the iteration limit of "
-             "'Pressure Newton' (Absolute tolerance, Relative tolerance, Max Newton iterations) "
-             "and its Verbose flag",
-             {"Newton-Krylov", "Anderson fixed point"});
+             "iterates, one predictor-projection per iteration (Setup II: 2-4 per step, a "
+             "third of Newton's; docs/numerics.md); Newton-Krylov: NOX's Jacobian-free "
+             "Newton-Krylov ('Pressure Newton' list: Krylov and line-search settings). Both use "
+             "the tolerances, the iteration limit and the Verbose flag of 'Pressure Newton' "
+             "(Absolute tolerance, Relative tolerance, Max Newton iterations)",
+             {"Anderson fixed point", "Newton-Krylov"});
     add_int(*pl, "Anderson depth", d.anderson_depth,
             "'Pressure iteration' = Anderson fixed point: how many previous iterates the "
             "Anderson mixing combines (0: the plain fixed-point iteration q <- P(q))",

@@ -214,7 +214,8 @@ void NdamSolver::step(double dt) {
   // The rotational pressure update is a splitting correction (it vanishes at a steady state),
   // not part of eq. (10): it keeps nu_eff(u^n, p^n) in the nonlinear coupling too, where the
   // trial pressure would otherwise enter through 2 nu_eff(q) div u*, a term that is large
-  // wherever the material is stopped (nu_eff ~ tau_p m_y q) and that made Newton stall.
+  // wherever the material is stopped (nu_eff ~ tau_p m_y q) and that made Newton stall; and
+  // (pressure_system.cpp) the divergence of the lagged step's predictor, for the same reason.
   nu_rot_ = nu_;
   // 3. free-surface conditions: the Dirichlet values of the Surface and Empty cells
   if (cfg_.free_surface) surface_conditions();

@@ -28,6 +28,25 @@ void NdamSolver::project_at(const std::vector<double>& q, double dt) {
   fill_scalar_ghosts(p_trial_);
   update_viscosity(p_trial_);
   project(dt);
+  if (cfg_.momentum == Momentum::Implicit) {
+    // The rotational correction of project(), -2 nu_rot div u*, at the predictor of the first
+    // evaluation of the solve (q = p^n, the lagged step) instead of u*(q): see
+    // solve_pressure_system. p_new_ += 2 nu_rot (div u*(q) - div u*(p^n)) undoes the change.
+    const std::size_t n = static_cast<std::size_t>(nxl) * static_cast<std::size_t>(nz);
+    const bool first = div_lagged_.size() != n;
+    if (first) div_lagged_.assign(n, 0.0);
+    for (int i = 0; i < nxl; ++i)
+      for (int k = 0; k < nz; ++k) {
+        if (!mac_.p_unknown(mac_.slab.i0 + i, k)) continue;
+        const auto r = static_cast<std::size_t>(i * nz + k);
+        const double d = divergence(u_star_, w_star_, i, k);
+        if (first)
+          div_lagged_[r] = d;
+        else
+          p_new_(i, k) += 2.0 * nu_rot_(i, k) * (d - div_lagged_[r]);
+      }
+    if (!first) fill_scalar_ghosts(p_new_);
+  }
   q_evaluated_ = q;
 }
 
@@ -171,13 +190,21 @@ solvers::NonlinearStats NdamSolver::anderson_fixed_point(std::vector<double>& q,
 // NOX solves R = 0 by Newton's method from q0 = p^n (the lagged answer is its first
 // residual); J v by finite differences of R (Jacobian-free: P contains the linear solves),
 // GMRES without a preconditioner since J = I - dP/dq is the identity plus the yield-stress
-// coupling. The state of the step is P at the converged q (so u^{n+1} and p^{n+1} belong to
+// coupling. The rotational correction -2 nu_rot div u* of the implicit scheme (projection.cpp)
+// is a splitting correction, not part of eq. (10): it is evaluated at t^n data, nu_rot =
+// nu_eff(u^n, p^n) and the predictor u* of the lagged step (q = p^n, the first evaluation),
+// so that P depends on q only through F of eq. (8) and the projection. With u*(q) in it the
+// map had no root with q >= 0 in wall-column cells below the free surface of Setup II (the
+// term changes by O(nu_rot div u*) when nu_eff(q) stiffens a cell, nu_rot up to 0.5 m^2/s
+// there) and every solver stalled there (docs/numerics.md, "Where Newton stalled").
+// The state of the step is P at the converged q (so u^{n+1} and p^{n+1} belong to
 // one projection); a Newton solve that fails marks the step for check().
 void NdamSolver::solve_pressure_system(double dt) {
   const auto t0 = Clock::now();
   const int nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
   const std::size_t n = static_cast<std::size_t>(nxl) * static_cast<std::size_t>(nz);
   newton_dt_ = dt;
+  div_lagged_.clear();  // the first evaluation (at q0 = p^n) records div u* of the lagged step
   newton_scale_ = 1.0 / (std::abs(phys_.gz) * cfg_.grid.lz *
                          std::sqrt(static_cast<double>(cfg_.grid.nx) * nz));
   if (p_trial_.data().empty()) p_trial_ = Field(nxl, nz);

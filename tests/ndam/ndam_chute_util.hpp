@@ -24,7 +24,7 @@ struct FsCase {
   std::string coupling = "Lagged";
   int newton_max = 0;
   double newton_abs_tol = 0.0;
-  std::string pressure_iteration = "Newton-Krylov";  // or "Anderson fixed point"
+  std::string pressure_iteration = "Anderson fixed point";  // or "Newton-Krylov"
   double x0 = 0.0;  // grid origin along the slope (NdamConfig::x0, as a 2D subdomain has)
 };
 

@@ -75,9 +75,9 @@ struct NdamConfig {
   /// 'Pressure Newton failure' = Continue: an unconverged step keeps NOX's best iterate
   /// (counted in summary.json) instead of stopping the run.
   bool newton_failure_continue = false;
-  /// How the nonlinear pressure system is solved ('Pressure iteration'): NOX's Jacobian-free
-  /// Newton-Krylov ('Pressure Newton', default) or the Anderson-accelerated fixed point q <- P(q).
-  PressureIteration pressure_iteration = PressureIteration::NewtonKrylov;
+  /// How the nonlinear pressure system is solved ('Pressure iteration'): the Anderson-
+  /// accelerated fixed point q <- P(q) (default) or NOX's Jacobian-free Newton-Krylov.
+  PressureIteration pressure_iteration = PressureIteration::Anderson;
   int anderson_depth = 5;  ///< 'Anderson depth': differences kept by the Anderson mixing
 
   // --- free-surface chute ---------------------------------------------------------------------

@@ -277,6 +277,8 @@ class NdamSolver final : public core::Stepper {
   double newton_dt_ = 0.0, newton_scale_ = 1.0;
   Field p_trial_;
   std::vector<double> q_evaluated_;
+  // div u* of the solve's first evaluation (q = p^n): the rotational correction's predictor
+  std::vector<double> div_lagged_;
   solvers::NonlinearStats newton_stats_;
   bool newton_failed_ = false;
   std::array<double, 3> newton_fail_cell_{0.0, 0.0, 0.0};  // x, z, |q - P(q)| of a failure
