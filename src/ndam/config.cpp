@@ -165,11 +165,11 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
     add_enum(*pl, "Pressure Newton failure", d.newton_failure_continue ? "Continue" : "Stop",
              "what a step does whose nonlinear pressure solve does not reach its tolerance: "
              "Stop: the run stops with a diagnosis (the last good output and checkpoint are "
-             "kept); Continue: the step keeps NOX's best iterate (smallest ||R|| found), prints a "
+             "kept); Continue: the step keeps the solver's best iterate (smallest ||R|| found), prints a "
              "warning once and counts such steps and their worst ||R|| in summary.json "
              "(ndam.newton). Continue is for a reference run that meets a few cells where the "
-             "system has no nearby root (measured: the free surface at the end wall of Setup "
-             "II)",
+             "system has no nearby root (measured on Setup II before the rotational correction "
+             "was taken at the lagged predictor: the free surface at the end wall)",
              {"Stop", "Continue"});
     add_enum(*pl, "Pressure iteration",
              d.pressure_iteration == PressureIteration::Anderson ? "Anderson fixed point"
