@@ -165,11 +165,11 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
     add_enum(*pl, "Pressure Newton failure", d.newton_failure_continue ? "Continue" : "Stop",
              "what a step does whose nonlinear pressure solve does not reach its tolerance: "
              "Stop: the run stops with a diagnosis (the last good output and checkpoint are "
-             "kept); Continue: the step keeps NOX's best iterate (smallest ||R|| found), prints a "
+             "kept); Continue: the step keeps the solver's best iterate (smallest ||R|| found), prints a "
              "warning once and counts such steps and their worst ||R|| in summary.json "
              "(ndam.newton). Continue is for a reference run that meets a few cells where the "
-             "system has no nearby root (measured: the free surface at the end wall of Setup "
-             "II)",
+             "system has no nearby root (measured on Setup II before the rotational correction "
+             "was taken at the lagged predictor: the free surface at the end wall)",
              {"Stop", "Continue"});
     add_enum(*pl, "Load balance", d.balance_material ? "Material" : "Columns",
              "how the columns of the box are split into x-slabs over the MPI ranks: Material: "
@@ -178,6 +178,21 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "than 10 % above the mean (a chute filling from the gate, a deposit growing at "
              "the wall); Columns: equal numbers of columns, fixed. One rank: no effect",
              {"Material", "Columns"});
+    add_enum(*pl, "Pressure iteration",
+             d.pressure_iteration == PressureIteration::Anderson ? "Anderson fixed point"
+                                                                 : "Newton-Krylov",
+             "solver of the nonlinear pressure system ('Pressure coupling' = Nonlinear): "
+             "Anderson fixed point: q <- P(q) with Anderson mixing of the last 'Anderson depth' "
+             "iterates, one predictor-projection per iteration (Setup II: 2-4 per step, a "
+             "third of Newton's; docs/numerics.md); Newton-Krylov: NOX's Jacobian-free "
+             "Newton-Krylov ('Pressure Newton' list: Krylov and line-search settings). Both use "
+             "the tolerances, the iteration limit and the Verbose flag of 'Pressure Newton' "
+             "(Absolute tolerance, Relative tolerance, Max Newton iterations)",
+             {"Anderson fixed point", "Newton-Krylov"});
+    add_int(*pl, "Anderson depth", d.anderson_depth,
+            "'Pressure iteration' = Anderson fixed point: how many previous iterates the "
+            "Anderson mixing combines (0: the plain fixed-point iteration q <- P(q))",
+            0, 50);
     return pl;
   }();
   return valid;
@@ -316,6 +331,10 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                             : PressureCoupling::Lagged;
   c.pressure_newton = pl.sublist("Pressure Newton");
   c.newton_failure_continue = pl.get<std::string>("Pressure Newton failure") == "Continue";
+  c.pressure_iteration = pl.get<std::string>("Pressure iteration") == "Newton-Krylov"
+                             ? PressureIteration::NewtonKrylov
+                             : PressureIteration::Anderson;
+  c.anderson_depth = pl.get<int>("Anderson depth");
   if (c.pressure_newton.get<std::string>("Method") != "Jacobian-free Newton-Krylov")
     params::fail(pl.sublist("Pressure Newton"), "Method", c.pressure_newton.get<std::string>("Method"),
                  "the pressure system's residual contains the momentum and pressure solves, so "

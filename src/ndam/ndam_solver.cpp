@@ -262,7 +262,8 @@ void NdamSolver::step(double dt) {
   // The rotational pressure update is a splitting correction (it vanishes at a steady state),
   // not part of eq. (10): it keeps nu_eff(u^n, p^n) in the nonlinear coupling too, where the
   // trial pressure would otherwise enter through 2 nu_eff(q) div u*, a term that is large
-  // wherever the material is stopped (nu_eff ~ tau_p m_y q) and that made Newton stall.
+  // wherever the material is stopped (nu_eff ~ tau_p m_y q) and that made Newton stall; and
+  // (pressure_system.cpp) the divergence of the lagged step's predictor, for the same reason.
   nu_rot_ = nu_;
   // 3. free-surface conditions: the Dirichlet values of the Surface and Empty cells
   if (cfg_.free_surface) surface_conditions();
@@ -329,15 +330,16 @@ core::Health NdamSolver::check() const {
   // NOX stats are reduced over all ranks, so the decision is collective).
   if (h.ok && newton_failed_) {
     h.ok = false;
-    h.quantity = "pressure Newton (NOX)";
+    const bool aa = cfg_.pressure_iteration == PressureIteration::Anderson;
+    h.quantity = aa ? "pressure fixed point (Anderson)" : "pressure Newton (NOX)";
     h.value = newton_stats_.final_residual;
     h.x = newton_fail_cell_[0];
     std::ostringstream hist;
     for (double r : newton_stats_.residual_history) hist << (hist.tellp() > 0 ? " " : "") << r;
     h.reason = "the nonlinear pressure system did not converge: " + newton_stats_.reason +
-               " (||R|| per Newton iteration: " + hist.str() + "; " +
-               std::to_string(newton_stats_.krylov_iterations) +
-               " GMRES iterations; largest mismatch |q - P(q)| = " + detail::gstr(newton_fail_cell_[2]) +
+               " (||R|| per " + (aa ? "Anderson" : "Newton") + " iteration: " + hist.str() + "; " +
+               (aa ? std::string() : std::to_string(newton_stats_.krylov_iterations) + " GMRES iterations; ") +
+               "largest mismatch |q - P(q)| = " + detail::gstr(newton_fail_cell_[2]) +
                " m^2/s^2 in the cell at x = " + detail::gstr(newton_fail_cell_[0]) +
                " m, z = " + detail::gstr(newton_fail_cell_[1]) + " m; see N-DAM->Pressure Newton: Absolute tolerance, Relative "
                "tolerance, Max Newton iterations, or 'Pressure coupling' = Lagged)";

@@ -247,3 +247,13 @@ add_test(NAME cli.restart_exact_2d_np2
                  $<TARGET_FILE:granflow> ${CMAKE_CURRENT_BINARY_DIR}/restart_exact_np2
                  ${PROJECT_SOURCE_DIR}/inputs/setup2_ndam.xml)
 set_tests_properties(cli.restart_exact_2d_np2 PROPERTIES LABELS "cli;mpi" PROCESSORS 2 TIMEOUT 600)
+# The paper's nonlinear pressure system through the Setup II deposit with the default
+# 'Pressure Newton failure' = Stop (issue 12): exit 0 = every step's solve converged.
+foreach(_s 5mm 2p6mm long_5mm)
+  add_test(NAME long.setup2_nonlinear_${_s}
+           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow>
+                   "-DARGS=--overwrite ${_cli}/setup2_nonlinear_${_s}.xml" -DEXPECTED_CODE=0
+                   "-DREGEX=completed at t = " -P ${_cli}/run_cli.cmake
+           WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+  set_tests_properties(long.setup2_nonlinear_${_s} PROPERTIES LABELS "long" TIMEOUT 7200)
+endforeach()

@@ -28,6 +28,7 @@ struct FsCase {
   std::string coupling = "Lagged";
   int newton_max = 0;
   double newton_abs_tol = 0.0;
+  std::string pressure_iteration = "Anderson fixed point";  // or "Newton-Krylov"
   double x0 = 0.0;  // grid origin along the slope (NdamConfig::x0, as a 2D subdomain has)
 };
 
@@ -47,6 +48,7 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   n.set("Initial x1", c.init_x1);
   n.set("Friction regularisation", c.m_c);
   n.set("Pressure coupling", c.coupling);
+  n.set("Pressure iteration", c.pressure_iteration);
   if (c.newton_max > 0) n.sublist("Pressure Newton").set("Max Newton iterations", c.newton_max);
   if (c.newton_abs_tol > 0.0) {
     n.sublist("Pressure Newton").set("Absolute tolerance", c.newton_abs_tol);

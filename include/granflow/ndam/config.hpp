@@ -20,6 +20,8 @@ enum class Momentum { Explicit, Implicit };
 /// How the pressure enters tau_y and the Coulomb law (13): at t^n (Lagged) or at t^{n+1}
 /// (Nonlinear: the nonlinear pressure system solved by NOX in every step).
 enum class PressureCoupling { Lagged, Nonlinear };
+/// The solver of the nonlinear pressure system (docs/numerics.md, "Pressure coupling").
+enum class PressureIteration { Anderson, NewtonKrylov };
 enum class Side : int { Left = 0, Right = 1, Bottom = 2, Top = 3 };
 /// Coulomb: the sliding law (11)-(13) with c_F = tan(delta) (1 - exp(-m_c |u_t|)) (Bottom and
 /// Right only; delta = 0 is free slip).
@@ -76,6 +78,10 @@ struct NdamConfig {
   /// 'Load balance' = Material: on several ranks the x-slabs follow the material cells
   /// (rebalanced as the material moves, load_balance.cpp); false: equal columns.
   bool balance_material = true;
+  /// How the nonlinear pressure system is solved ('Pressure iteration'): the Anderson-
+  /// accelerated fixed point q <- P(q) (default) or NOX's Jacobian-free Newton-Krylov.
+  PressureIteration pressure_iteration = PressureIteration::Anderson;
+  int anderson_depth = 5;  ///< 'Anderson depth': differences kept by the Anderson mixing
 
   // --- free-surface chute ---------------------------------------------------------------------
   /// Material tracked by markers: cells with markers are Fluid/Surface, the others Empty (p = 0).

@@ -235,7 +235,9 @@ class NdamSolver final : public core::Stepper {
   double max_abs_divergence(const Field& u, const Field& w) const;  // collective
   // --- pressure_system.cpp: the nonlinear pressure system (NOX) --------------------------------
   void project_at(const std::vector<double>& q, double dt);  // P(q): tau_y, (13) at q
-  void solve_pressure_system(double dt);  // 'Nonlinear': NOX on R(q) = q - P(q)
+  void solve_pressure_system(double dt);  // 'Nonlinear': the root of R(q) = q - P(q)
+  // 'Pressure iteration' = Anderson fixed point: q <- P(q) with Anderson mixing
+  solvers::NonlinearStats anderson_fixed_point(std::vector<double>& q, double dt);
   bool pressure_dependent() const;  // tau_p != 0 or a Coulomb side: the system is nonlinear
   bool coulomb_walls() const;       // a Coulomb bed or end wall
 
@@ -295,6 +297,8 @@ class NdamSolver final : public core::Stepper {
   double newton_dt_ = 0.0, newton_scale_ = 1.0;
   Field p_trial_;
   std::vector<double> q_evaluated_;
+  // div u* of the solve's first evaluation (q = p^n): the rotational correction's predictor
+  std::vector<double> div_lagged_;
   solvers::NonlinearStats newton_stats_;
   bool newton_failed_ = false;
   std::array<double, 3> newton_fail_cell_{0.0, 0.0, 0.0};  // x, z, |q - P(q)| of a failure
