@@ -304,6 +304,15 @@ core::MassBalance CoupledModel::mass_balance() const {
   return m;
 }
 
+core::Speed CoupledModel::max_speed() const {
+  core::Speed s;
+  for (const auto& p : parts_) {
+    const core::Speed q = p.model->max_speed();  // collective in a 2D part: every part, always
+    if (q.value > s.value || s.quantity.empty()) s = q;
+  }
+  return s;
+}
+
 // One channel-wide mesh per kind, whatever the layout, so that a field series stays one
 // series in ParaView while the interfaces move: "dam", the depth-averaged state h, u_mean, hu
 // and the model (1 or 2) of every DAM-sized cell of [0, L] (from the 1D cells and the 2D

@@ -861,6 +861,21 @@ core::MassBalance DamSolver::mass_balance() const {
   return m;
 }
 
+// The fastest wet cell of the current grid (primary or staggered): |hu / h| where h > dry.
+core::Speed DamSolver::max_speed() const {
+  core::Speed s;
+  s.quantity = "u_mean";
+  const auto x = centres();
+  for (std::size_t k = 0; k < h_.size(); ++k) {
+    const double u = std::abs(velocity(h_[k], hu_[k]));
+    if (u > s.value) {
+      s.value = u;
+      s.x = x[k];
+    }
+  }
+  return s;
+}
+
 void DamSolver::write_fields(io::FieldWriter& w) const {
   std::vector<double> h, hu;
   primary(h, hu);

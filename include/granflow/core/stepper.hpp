@@ -49,6 +49,16 @@ struct MassBalance {
   double defect() const { return current - initial - inflow + outflow; }
 };
 
+/// The fastest material velocity of a state: how fast, where, which component. The run driver
+/// keeps the largest one over the accepted steps (summary.json "max_speed"), so a stability
+/// check compares every step with its bound, not only the output times.
+struct Speed {
+  double value = 0.0;    ///< |velocity| [m/s]
+  double x = 0.0;        ///< where along the channel [m]
+  double z = 0.0;        ///< height above the bed [m] (2D; 0 for a depth average)
+  std::string quantity;  ///< "|u|" (a 2D cell's centred velocity), "u_mean" (a 1D cell)
+};
+
 /// Result of checking a tentative state: where, when and which quantity went wrong.
 struct Health {
   bool ok = true;
@@ -78,6 +88,9 @@ class Stepper {
 
   virtual Profile profile() const = 0;
   virtual MassBalance mass_balance() const = 0;
+  /// The fastest velocity of the material in the current state (cell-centred in the material
+  /// cells in 2D, depth-averaged in the wet cells in 1D); collective in 2D.
+  virtual Speed max_speed() const = 0;
   /// Field snapshot (HDF5 + XDMF).
   virtual void write_fields(io::FieldWriter& w) const = 0;
   virtual void save(io::Checkpoint& c) const = 0;

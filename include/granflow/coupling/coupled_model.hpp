@@ -82,6 +82,7 @@ class CoupledModel final : public core::Stepper {
   bool adapt() override;
   core::Profile profile() const override;
   core::MassBalance mass_balance() const override;
+  core::Speed max_speed() const override;
   void write_fields(io::FieldWriter& w) const override;
   void save(io::Checkpoint& c) const override;
   void load(const io::Checkpoint& c) override;
