@@ -607,6 +607,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
       std::ostringstream os;
       os << "stable time step " << stable << " s fell below 'Min time step' = " << rc_.min_dt
          << " s at t = " << t << " s";
+      if (const std::string lim = model_->dt_limit(); !lim.empty()) os << ", set by " << lim;
       write_summary("diverged", os.str(), kDiverged);
       if (io_rank())
         std::cerr << "\ngranflow: run stopped: " << os.str()

@@ -321,6 +321,22 @@ core::MassBalance CoupledModel::mass_balance() const {
   return m;
 }
 
+// The subdomain with the smallest stable step says what sets it (every part asked: collective).
+std::string CoupledModel::dt_limit() const {
+  double best = std::numeric_limits<double>::infinity();
+  std::string what;
+  for (const auto& p : parts_) {
+    const double dt = p.model->stable_dt();
+    const std::string lim = p.model->dt_limit();
+    if (dt < best) {
+      best = dt;
+      what = lim + " (in the " + p.kind + " subdomain [" + params::str(p.x0) + ", " +
+             params::str(p.x1) + "] m)";
+    }
+  }
+  return what;
+}
+
 core::Speed CoupledModel::max_speed() const {
   core::Speed s;
   for (const auto& p : parts_) {

@@ -98,6 +98,11 @@ class Stepper {
   virtual long steps() const = 0;
   /// Largest time step the model accepts in its current state (CFL and other limits).
   virtual double stable_dt() const = 0;
+  /// Which condition sets stable_dt() now and where: the quantity, its value and its place
+  /// (e.g. "viscous: nu_eff = 1 m^2/s at x = 0.2 m, z = 0.01 m"), for the diagnosis of a run
+  /// whose stable step falls below 'Min time step'; collective like stable_dt(). Empty when the
+  /// model does not say.
+  virtual std::string dt_limit() const { return {}; }
   /// Compute the state at time() + dt into a tentative buffer.
   virtual void step(double dt) = 0;
   /// Diagnose the tentative state (finite, positive depth, ...).
