@@ -15,17 +15,8 @@
 
 namespace granflow::ndam {
 
-// The empty-side face (c, i, k) of a Surface cell as its opposite face; a Ref with a = 0 and
-// gid = -1 (and b = 0) when the face is not of that kind. In V this leaves the Surface cell no
-// normal viscous stress in that direction, tau_nn = 0, which with the implicit scheme's p = 0
-// at the surface (surface_pressure) is the free-surface condition sigma_nn = -p + tau_nn = 0.
-// The explicit scheme (the paper's) sets p = 2 nu n.D.n instead and keeps the lagged normal
-// stress: its Ref adds the lagged difference of the two faces, u_f^n - u_o^n, so that V reads
-// the face's own value. The implicit scheme used to keep that difference too: a lagged
-// tau_nn = 2 nu (u_f^n - u_o^n) / dx, the explicit viscous term of weight 2 nu dt / dx^2 that
-// the dropped surface pressure had been measured unstable with, and one of the two causes of
-// the 20-230 m/s surface velocities at nu = 0.3-1 m^2/s (docs/validation.md, "Stability
-// suite"; the other is in project()).
+// The empty-side face (c, i, k) of a Surface cell as its opposite face plus the lagged
+// difference; a Ref with a = 0 and gid = -1 (and b = 0) when the face is not of that kind.
 NdamSolver::Ref NdamSolver::surface_face_ref(Comp c, int i, int k) const {
   const int gi = mac_.slab.i0 + i;
   // the two cells of the face: (gi, k) and (gi + 1, k) for u, (gi, k) and (gi, k + 1) for w
@@ -46,10 +37,8 @@ NdamSolver::Ref NdamSolver::surface_face_ref(Comp c, int i, int k) const {
   }
   if (mask & opp) return Ref{};
   Ref m = ref(c, io, ko);
-  if (cfg_.momentum == Momentum::Explicit) {
-    const Field& f = c == U ? u_ : w_;
-    m.b += f(i, k) - f(io, ko);
-  }
+  const Field& f = c == U ? u_ : w_;
+  m.b += f(i, k) - f(io, ko);
   return m;
 }
 

@@ -97,47 +97,23 @@ void NdamSolver::project(double dt) {
   // Rotational pressure update (Timmermans et al. 1996; Guermond, Minev & Shen 2006) for the
   // implicit treatment: p^{n+1} = p^n + phi - 2 nu_eff div u*. In the stress form
   // div(2 nu D u) = 2 nu grad(div u) - nu curl curl u (constant nu), so 2 nu div u* is the part
-  // of the implicit viscous term that the projection removes from u*: on a gradient field the
-  // discrete V obeys V G phi = G (2 nu L phi), and dt V G phi = G (2 nu div u*). Putting it back
-  // into the pressure removes the splitting error that otherwise makes the pressure lag by
+  // of the implicit viscous term that the projection removes from u*; putting it back into the
+  // pressure removes the splitting error that otherwise makes the pressure lag by
   // O(nu dt / dx^2) steps when nu_eff is large (a Stokes-limit Uzawa iteration with step
   // 2 nu_eff). It vanishes at a steady state and for the explicit scheme (the paper's) it is
   // not used.
-  //   The identity holds on a face only where V has its interior stencil: no corner on the free
-  // surface (zero shear stress there, nu_corner), no face that follows another
-  // (surface_face_ref), and a pressure unknown on both sides. So the update is made only in the
-  // Fluid cells whose eight neighbours are pressure unknowns too (walls and obstacles allowed;
-  // rotational_cell). Next to a Surface cell, an Empty cell or a Dirichlet inflow column the
-  // term has nothing to cancel and acts as an explicit viscous term of weight ~2 nu dt / dx^2:
-  // with it in every Fluid cell, the nu = 0.3 m^2/s Setup II ran with the pressure alternating
-  // in sign from step to step below the surface and velocities up to 180 m/s (230 m/s at
-  // nu = 1), without it in the cells next to the surface only, nu = 1 still reached 50 m/s
-  // (docs/validation.md, "Stability suite").
   const double rot = cfg_.momentum == Momentum::Implicit ? 2.0 : 0.0;
   for (int i = 0; i < mac_.slab.nx_local; ++i)
     for (int k = 0; k < cfg_.grid.nz; ++k) {
-      const int gi = mac_.slab.i0 + i;
-      if (mac_.p_unknown(gi, k) && rot > 0.0 && rotational_cell(gi, k))
+      if (mac_.p_unknown(mac_.slab.i0 + i, k))
         p_new_(i, k) += phi(i, k) - rot * nu_rot_(i, k) * divergence(u_star_, w_star_, i, k);
-      else  // the other unknowns, and the Dirichlet cells: phi is the increment to their value
-            // (surface, eq. 26 at an interface, 0 when Empty); obstacles: phi = 0
+      else  // Dirichlet cells: phi is the increment to their value (surface normal stress,
+            // eq. 26 at an interface, 0 when Empty); obstacles: phi = 0
         p_new_(i, k) += phi(i, k);
     }
   if (!cfg_.free_surface) normalise_pressure(p_new_);
   fill_scalar_ghosts(p_new_);
   stats_.step_pressure += detail::seconds_since(t2);
-}
-
-// A Fluid cell whose 3 x 3 neighbourhood holds only pressure unknowns, walls and obstacles: the
-// viscous stencils of its four faces are interior ones (see project()).
-bool NdamSolver::rotational_cell(int gi, int k) const {
-  for (int a = -1; a <= 1; ++a)
-    for (int b = -1; b <= 1; ++b) {
-      const int gn = gi + a, kn = k + b;
-      if (mac_.gflag(gn, kn) == CellFlag::Obstacle) continue;  // also outside the box
-      if (!mac_.p_unknown(gn, kn)) return false;
-    }
-  return true;
 }
 
 double NdamSolver::divergence(const Field& u, const Field& w, int i, int k) const {

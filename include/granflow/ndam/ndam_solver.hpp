@@ -221,7 +221,6 @@ class NdamSolver final : public core::Stepper {
   void correct_velocity(double dt, const Field& phi, Field& us, Field& ws) const;
   void normalise_pressure(Field& p) const;
   void initial_pressure();
-  bool rotational_cell(int gi, int k) const;  // the rotational pressure update applies
   double divergence(const Field& u, const Field& w, int i, int k) const;
   double max_abs_divergence(const Field& u, const Field& w) const;  // collective
   // --- pressure_system.cpp: the nonlinear pressure system (NOX) --------------------------------
