@@ -331,6 +331,16 @@ void Simulation::write_output() {
   show_progress(false, true);
 }
 
+// The fastest velocity of the current state against the run's largest so far (every accepted
+// state, from the first one of this run: a restart counts from its checkpoint).
+void Simulation::track_speed() {
+  const Speed s = model_->max_speed();
+  if (s.value > max_speed_.value || max_speed_.quantity.empty()) {
+    max_speed_ = s;
+    max_speed_t_ = model_->time();
+  }
+}
+
 // summary.json's "wall_load": the extremes of the wall.csv series (the whole run, also across
 // restarts: the writer re-reads the rows it keeps).
 nlohmann::json Simulation::wall_summary() const {
@@ -378,6 +388,10 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   s["steps"] = model_->steps();
   if (restarted_)
     s["restart"] = {{"from", rc_.restart_from}, {"checkpoint_time", restart_time_}};
+  // the fastest material velocity of the accepted states (the stability suite's bound)
+  s["max_speed"] = {{"value", max_speed_.value}, {"t", max_speed_t_}, {"x", max_speed_.x},
+                    {"z", max_speed_.z}, {"quantity", max_speed_.quantity},
+                    {"unit", "m/s"}};
   // Provenance: which code, built how, ran where (tells runs and benchmarks apart).
   nlohmann::json prov = nlohmann::json::object();
   for (const auto& [k, v] : build_info_) prov[k] = v;
@@ -584,6 +598,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
     sample_wall();
     write_output();
   }
+  track_speed();
 
   // The time loop:  dt = min(stable dt, output and end times);  step;  check;  accept.
   double next_output = output_time(next_index_);
@@ -605,6 +620,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
       std::ostringstream os;
       os << "stable time step " << stable << " s fell below 'Min time step' = " << rc_.min_dt
          << " s at t = " << t << " s";
+      if (const std::string lim = model_->dt_limit(); !lim.empty()) os << ", set by " << lim;
       write_summary("diverged", os.str(), kDiverged);
       if (io_rank())
         std::cerr << "\ngranflow: run stopped: " << os.str()
@@ -640,6 +656,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
     }
     model_->accept();
     last_dt_ = dt;
+    track_speed();
     // between accepted steps: the model may change its layout (the domain manager)
     const auto t3 = Clock::now();
     model_->adapt();

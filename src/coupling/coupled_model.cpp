@@ -321,6 +321,31 @@ core::MassBalance CoupledModel::mass_balance() const {
   return m;
 }
 
+// The subdomain with the smallest stable step says what sets it (every part asked: collective).
+std::string CoupledModel::dt_limit() const {
+  double best = std::numeric_limits<double>::infinity();
+  std::string what;
+  for (const auto& p : parts_) {
+    const double dt = p.model->stable_dt();
+    const std::string lim = p.model->dt_limit();
+    if (dt < best) {
+      best = dt;
+      what = lim + " (in the " + p.kind + " subdomain [" + params::str(p.x0) + ", " +
+             params::str(p.x1) + "] m)";
+    }
+  }
+  return what;
+}
+
+core::Speed CoupledModel::max_speed() const {
+  core::Speed s;
+  for (const auto& p : parts_) {
+    const core::Speed q = p.model->max_speed();  // collective in a 2D part: every part, always
+    if (q.value > s.value || s.quantity.empty()) s = q;
+  }
+  return s;
+}
+
 // One channel-wide mesh per kind, whatever the layout, so that a field series stays one
 // series in ParaView while the interfaces move: "dam", the depth-averaged state h, u_mean, hu
 // and the model (1 or 2) of every DAM-sized cell of [0, L] (from the 1D cells and the 2D

@@ -905,6 +905,37 @@ core::MassBalance DamSolver::mass_balance() const {
   return m;
 }
 
+// The cell of the fastest characteristic |u| + sqrt(beta h) (see stable_dt()).
+std::string DamSolver::dt_limit() const {
+  const auto x = centres();
+  double amax = 0.0, xa = 0.0;
+  for (std::size_t k = 0; k < h_.size(); ++k) {
+    const double a = std::abs(velocity(h_[k], hu_[k])) +
+                     std::sqrt(std::max(0.0, phys_.g_cos * phys_.K(0.0) * h_[k]));
+    if (a > amax) amax = a, xa = x[k];
+  }
+  if (amax <= 0.0) return "no wave speed (the channel dry or at rest)";
+  std::ostringstream os;
+  os << "the CFL limit: |u| + sqrt(beta h) = " << amax << " m/s (beta at K(0)) at x = " << xa
+     << " m";
+  return os.str();
+}
+
+// The fastest wet cell of the current grid (primary or staggered): |hu / h| where h > dry.
+core::Speed DamSolver::max_speed() const {
+  core::Speed s;
+  s.quantity = "u_mean";
+  const auto x = centres();
+  for (std::size_t k = 0; k < h_.size(); ++k) {
+    const double u = std::abs(velocity(h_[k], hu_[k]));
+    if (u > s.value) {
+      s.value = u;
+      s.x = x[k];
+    }
+  }
+  return s;
+}
+
 void DamSolver::write_fields(io::FieldWriter& w) const {
   std::vector<double> h, hu;
   primary(h, hu);

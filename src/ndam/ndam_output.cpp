@@ -80,6 +80,38 @@ core::MassBalance NdamSolver::mass_balance() const {
   return m;
 }
 
+// The fastest material cell: the speed |(u_c, w_c)| of the cell-centred velocity (the mean of
+// the cell's two faces in each direction, as fields.h5 writes it) over the Fluid and Surface
+// cells. A face value alone is a boundary value where the cell has an empty side (continuity
+// sends a layer's whole flux through its one free face). Collective: the largest over the
+// ranks, its place from the rank that holds it.
+core::Speed NdamSolver::max_speed() const {
+  const int nz = cfg_.grid.nz, nxl = mac_.slab.nx_local;
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  double best[3] = {0.0, 0.0, 0.0};  // |v|, x, z
+  for (int i = 0; i < nxl; ++i) {
+    const int gi = mac_.slab.i0 + i;
+    for (int k = 0; k < nz; ++k) {
+      if (!mac_.fluid(gi, k)) continue;
+      const double uc = 0.5 * (u_(i - 1, k) + u_(i, k)), wc = 0.5 * (w_(i, k - 1) + w_(i, k));
+      const double v = std::hypot(uc, wc);
+      if (v > best[0]) best[0] = v, best[1] = (gi + 0.5) * dx, best[2] = (k + 0.5) * dz;
+    }
+  }
+  struct {
+    double v;
+    int rank;
+  } mine{best[0], mac_.slab.rank}, top{};
+  MPI_Allreduce(&mine, &top, 1, MPI_DOUBLE_INT, MPI_MAXLOC, comm_);
+  MPI_Bcast(best, 3, MPI_DOUBLE, top.rank, comm_);
+  core::Speed s;
+  s.value = best[0];
+  s.x = cfg_.x0 + best[1];
+  s.z = best[2];
+  s.quantity = "|u|";
+  return s;
+}
+
 void NdamSolver::write_fields(io::FieldWriter& wr) const {
   const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
   std::vector<double> xn(static_cast<std::size_t>(nx + 1)), zn(static_cast<std::size_t>(nz + 1));

@@ -242,6 +242,64 @@ double NdamSolver::stable_dt() const {
   return dt;
 }
 
+// The condition behind stable_dt() and its place, for the diagnosis of a collapsed step: the
+// candidates of stable_dt (advective u and w, and for the explicit scheme the viscous and the
+// Coulomb-friction limits), each at the face or cell of its largest value over the ranks.
+std::string NdamSolver::dt_limit() const {
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
+  const int nz = cfg_.grid.nz;
+  struct Where {
+    double v = 0.0, x = 0.0, z = 0.0;
+  };
+  Where u, w, nu, fr;
+  for (int i = 0; i < mac_.slab.nx_local; ++i) {
+    const int gi = mac_.slab.i0 + i;
+    for (int k = 0; k < nz; ++k) {
+      if (std::abs(u_(i, k)) > u.v) u = {std::abs(u_(i, k)), (gi + 1) * dx, (k + 0.5) * dz};
+      if (std::abs(w_(i, k)) > w.v) w = {std::abs(w_(i, k)), (gi + 0.5) * dx, (k + 1) * dz};
+      if (nu_(i, k) > nu.v) nu = {nu_(i, k), (gi + 0.5) * dx, (k + 0.5) * dz};
+    }
+    if (cfg_.momentum == Momentum::Explicit && cfg_.walls[2].kind == WallKind::Coulomb) {
+      const double a = bed_a_[static_cast<std::size_t>(i + Field::G)];
+      const double r = 0.5 * (nu_(i, 0) + nu_(i + 1, 0)) * (1.0 - a) / (dz * dz);
+      if (r > fr.v) fr = {r, (gi + 0.5) * dx, 0.0};
+    }
+  }
+  auto global = [&](Where q) {  // the largest over the ranks, its place from the rank holding it
+    struct {
+      double v;
+      int rank;
+    } mine{q.v, mac_.slab.rank}, top{};
+    MPI_Allreduce(&mine, &top, 1, MPI_DOUBLE_INT, MPI_MAXLOC, comm_);
+    double b[3] = {q.v, q.x, q.z};
+    MPI_Bcast(b, 3, MPI_DOUBLE, top.rank, comm_);
+    return Where{b[0], cfg_.x0 + b[1], b[2]};
+  };
+  u = global(u), w = global(w), nu = global(nu), fr = global(fr);
+  const double inf = std::numeric_limits<double>::infinity();
+  const bool expl = cfg_.momentum == Momentum::Explicit;
+  const double dt_u = u.v > 0.0 ? dx / u.v : inf, dt_w = w.v > 0.0 ? dz / w.v : inf;
+  const double dt_nu = expl && nu.v > 0.0 ? 1.0 / (4.0 * nu.v * (1.0 / (dx * dx) + 1.0 / (dz * dz)))
+                                          : inf;
+  const double dt_fr = expl && fr.v > 0.0 ? 1.0 / fr.v : inf;
+  std::ostringstream os;
+  const double m = std::min({dt_u, dt_w, dt_nu, dt_fr});
+  if (!std::isfinite(m)) return "no velocity and no viscous limit (the material at rest)";
+  if (m == dt_nu)
+    os << "the explicit viscous limit CFL / (4 nu_eff (1/dx^2 + 1/dz^2)): nu_eff = " << nu.v
+       << " m^2/s at x = " << nu.x << " m, z = " << nu.z << " m";
+  else if (m == dt_fr)
+    os << "the explicit Coulomb friction limit: bed damping rate " << fr.v << " 1/s at x = "
+       << fr.x << " m";
+  else if (m == dt_u)
+    os << "the advective CFL limit: |u| = " << u.v << " m/s at the face x = " << u.x
+       << " m, z = " << u.z << " m";
+  else
+    os << "the advective CFL limit: |w| = " << w.v << " m/s at the face x = " << w.x
+       << " m, z = " << w.z << " m";
+  return os.str();
+}
+
 double NdamSolver::max_nu_eff() const {
   double m = 0.0;
   for (int i = 0; i < mac_.slab.nx_local; ++i)

@@ -105,6 +105,9 @@ class Simulation {
   std::vector<std::pair<double, std::vector<LayoutPiece>>> layouts_;
   double last_output_t_ = 0.0;
   double last_dt_ = 0.0;
+  Speed max_speed_;          ///< fastest material velocity over the accepted states so far
+  double max_speed_t_ = 0.0;  ///< its time
+  void track_speed();
   long last_progress_step_ = -1;
   double origin_ = 0.0;   ///< time of the scene's start; outputs at origin + k Interval
   long next_index_ = 1;   ///< k of the next output time

@@ -50,6 +50,16 @@ struct MassBalance {
   double defect() const { return current - initial - inflow + outflow; }
 };
 
+/// The fastest material velocity of a state: how fast, where, which component. The run driver
+/// keeps the largest one over the accepted steps (summary.json "max_speed"), so a stability
+/// check compares every step with its bound, not only the output times.
+struct Speed {
+  double value = 0.0;    ///< |velocity| [m/s]
+  double x = 0.0;        ///< where along the channel [m]
+  double z = 0.0;        ///< height above the bed [m] (2D; 0 for a depth average)
+  std::string quantity;  ///< "|u|" (a 2D cell's centred velocity), "u_mean" (a 1D cell)
+};
+
 /// The load of the material on the rigid end wall at x = L, per unit channel width: what an
 /// engineer takes from the model for a defence structure (wall.csv, summary.json). Forces on the
 /// wall (the reaction on the material has the opposite sign).
@@ -88,6 +98,11 @@ class Stepper {
   virtual long steps() const = 0;
   /// Largest time step the model accepts in its current state (CFL and other limits).
   virtual double stable_dt() const = 0;
+  /// Which condition sets stable_dt() now and where: the quantity, its value and its place
+  /// (e.g. "viscous: nu_eff = 1 m^2/s at x = 0.2 m, z = 0.01 m"), for the diagnosis of a run
+  /// whose stable step falls below 'Min time step'; collective like stable_dt(). Empty when the
+  /// model does not say.
+  virtual std::string dt_limit() const { return {}; }
   /// Compute the state at time() + dt into a tentative buffer.
   virtual void step(double dt) = 0;
   /// Diagnose the tentative state (finite, positive depth, ...).
@@ -103,6 +118,9 @@ class Stepper {
   /// subdomains), for summary.json's interface positions over time.
   virtual std::vector<LayoutPiece> layout_pieces() const;
   virtual MassBalance mass_balance() const = 0;
+  /// The fastest velocity of the material in the current state (cell-centred in the material
+  /// cells in 2D, depth-averaged in the wet cells in 1D); collective in 2D.
+  virtual Speed max_speed() const = 0;
   /// Field snapshot (HDF5 + XDMF).
   virtual void write_fields(io::FieldWriter& w) const = 0;
   virtual void save(io::Checkpoint& c) const = 0;

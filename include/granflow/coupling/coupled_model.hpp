@@ -86,6 +86,8 @@ class CoupledModel final : public core::Stepper {
   core::Profile profile() const override;
   std::vector<core::LayoutPiece> layout_pieces() const override;
   core::MassBalance mass_balance() const override;
+  core::Speed max_speed() const override;
+  std::string dt_limit() const override;
   void write_fields(io::FieldWriter& w) const override;
   void save(io::Checkpoint& c) const override;
   void load(const io::Checkpoint& c) override;

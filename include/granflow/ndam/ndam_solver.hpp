@@ -89,6 +89,8 @@ class NdamSolver final : public core::Stepper {
   void accept() override;
   core::Profile profile() const override;
   core::MassBalance mass_balance() const override;
+  core::Speed max_speed() const override;
+  std::string dt_limit() const override;
   void write_fields(io::FieldWriter& w) const override;
   void save(io::Checkpoint& c) const override;
   void load(const io::Checkpoint& c) override;
