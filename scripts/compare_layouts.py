@@ -1,0 +1,278 @@
+#!/usr/bin/env python3
+"""Full 2D, static, a priori and dynamic layouts of one scene family, side by side.
+
+  compare_layouts.py BUILD OUTDIR [--family setup2|lab_chute] [--cell MM] [--end T]
+                     [--height H] [--interval DT] [--times T ...] [--rerun]
+
+Runs (or reuses, when OUTDIR/<variant>/summary.json of the same scene says 'completed') the
+four variants of the family at one resolution:
+  full     full 2D (N-DAM), the reference
+  static   the paper's layout (Setup II: 2D [0, 0.2] / 1D [0.2, 0.7] / 2D [0.7, 1] m; lab
+           chute: 2D [0, 0.2] / 1D [0.2, 1.8] / 2D [1.8, 2] m)
+  apriori  the a priori layout of a DAM run (paper section 4.1)
+  dynamic  the domain manager, starting from the static layout
+and writes OUTDIR/comparison.md and comparison.csv: per output time the relative errors of h and
+u_mean against full 2D (L2 and max over the flowing part, h > 1 mm and |u| > 1 mm/s, as
+granflow-study compare), the deposit depth at the wall, the shock position (the upstream end of
+the material at rest next to the wall, |u_mean| < 0.05 m/s), and per run the mass defect, wall
+time, steps and moves; plus the share of the full 2D run's material cells that lie in the
+dynamic run's 1D parts (the ideal saving) against the saving the dynamic run achieved; and
+OUTDIR/xt.png, an x-t picture of the depth field of the dynamic run with the interface positions
+of the coupled runs and the shock trajectory of full 2D.
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+FAMILIES = {
+    "setup2": {"full": "setup2_ndam.xml", "static": "setup2_coupled.xml",
+               "apriori": "setup2_coupled.xml", "dynamic": "setup2_dynamic.xml",
+               "length": 1.0},
+    "lab_chute": {"full": "lab_chute_ndam.xml", "static": "lab_chute_static.xml",
+                  "apriori": "lab_chute_apriori.xml", "dynamic": "lab_chute_dynamic.xml",
+                  "length": 2.0},
+}
+VARIANTS = ["full", "static", "apriori", "dynamic"]
+
+
+def set_param(text, name, typ, value):
+    pat = r'(<Parameter name="%s" type="%s" value=")[^"]*(")' % (re.escape(name), typ)
+    new, n = re.subn(pat, r"\g<1>%s\g<2>" % value, text)
+    if n == 0:
+        raise SystemExit("compare_layouts: the scene has no parameter '%s'" % name)
+    return new
+
+
+def variant_xml(family, variant, args, outdir):
+    spec = FAMILIES[family]
+    text = open(os.path.join(ROOT, "inputs", spec[variant])).read()
+    L = spec["length"]
+    if variant == "apriori" and family == "setup2":
+        text = re.sub(r'<ParameterList name="Decomposition">.*?</ParameterList>',
+                      '<ParameterList name="Decomposition">\n    <Parameter name="Layout" '
+                      'type="string" value="A priori"/>\n  </ParameterList>', text, flags=re.S)
+    if args.cell:
+        dx = args.cell / 1000.0
+        nx = int(round(L / dx))
+        text = set_param(text, "Cells x", "int", nx)
+        if 'name="DAM"' in text:
+            text = set_param(text, "Cells", "int", nx)
+    height = args.height
+    if height or args.cell:
+        h = height or float(re.search(r'name="Height" type="double" value="([^"]*)"', text).group(1))
+        dz = (args.cell / 1000.0) if args.cell else None
+        if dz is None:
+            nz0 = int(re.search(r'name="Cells z" type="int" value="([^"]*)"', text).group(1))
+            h0 = float(re.search(r'name="Height" type="double" value="([^"]*)"', text).group(1))
+            dz = h0 / nz0
+        text = set_param(text, "Height", "double", h)
+        text = set_param(text, "Cells z", "int", int(round(h / dz)))
+    if args.end:
+        text = set_param(text, "End time", "double", args.end)
+    if args.interval:
+        text = set_param(text, "Interval", "double", args.interval)
+    d = os.path.abspath(os.path.join(outdir, variant))
+    text = set_param(text, "Directory", "string", d)
+    return text, d
+
+
+def run_variant(build, family, variant, args, outdir):
+    text, d = variant_xml(family, variant, args, outdir)
+    os.makedirs(outdir, exist_ok=True)
+    scene = os.path.join(outdir, variant + ".xml")
+    summary = os.path.join(d, "summary.json")
+    if (not args.rerun and os.path.exists(summary) and os.path.exists(scene)
+            and open(scene).read() == text):
+        s = json.load(open(summary))
+        if s.get("status") == "completed":
+            print(f"{variant:8s} reused {d}", flush=True)
+            return d
+    open(scene, "w").write(text)
+    t0 = time.time()
+    p = subprocess.run([os.path.join(build, "apps", "granflow"), "--overwrite", scene],
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    print(f"{variant:8s} exit {p.returncode} in {time.time() - t0:.1f} s", flush=True)
+    if p.returncode != 0:
+        print(p.stdout[-2000:])
+        raise SystemExit(f"compare_layouts: the {variant} run failed")
+    return d
+
+
+def profiles(d):
+    out = {}
+    for r in csv.DictReader(open(os.path.join(d, "profiles.csv"))):
+        out.setdefault(round(float(r["t"]), 9), []).append(
+            (float(r["x"]), float(r["h"]), float(r["u_mean"]), r["model"]))
+    return out
+
+
+def on_grid(ref, test):
+    """test's (h, u) at ref's x (nearest point: the coupled runs' 1D cells may be finer)."""
+    xs = [p[0] for p in test]
+    out = []
+    j = 0
+    for x, *_ in ref:
+        while j + 1 < len(xs) and abs(xs[j + 1] - x) <= abs(xs[j] - x):
+            j += 1
+        out.append(test[j])
+    return out
+
+
+def errors(ref, test):
+    t = on_grid(ref, test)
+    num_h = den_h = num_u = den_u = 0.0
+    mh = mu = 0.0
+    for (x, h, u, _), (_, h2, u2, _) in zip(ref, t):
+        if h <= 1e-3 or abs(u) <= 1e-3:
+            continue
+        num_h += (h2 - h) ** 2
+        den_h += h * h
+        num_u += (u2 - u) ** 2
+        den_u += u * u
+        mh = max(mh, abs(h2 - h) / h)
+        mu = max(mu, abs(u2 - u) / abs(u))
+    f = lambda n, d: math.sqrt(n / d) if d > 0 else 0.0
+    return f(num_h, den_h), mh, f(num_u, den_u), mu
+
+
+def shock(prof, L):
+    """The shock: where arriving material meets the material stopped at the wall (Pudasaini et
+    al. 2007), taken as the steepest drop of u_mean over two columns among the columns deeper
+    than 1 mm downstream of the fastest flow; L when nothing has stopped at the wall yet."""
+    wet = [p for p in prof if p[1] > 1e-3]
+    if len(wet) < 3 or abs(prof[-1][2]) > 0.05 or prof[-1][1] <= 1e-3:
+        return L
+    i_fast = max(range(len(wet)), key=lambda i: wet[i][2])
+    best, x = 0.0, L
+    for i in range(max(i_fast, 1), len(wet) - 1):
+        drop = wet[i - 1][2] - wet[i + 1][2]
+        if drop > best:
+            best, x = drop, wet[i][0]
+    return x
+
+
+def interfaces(prof):
+    out = []
+    for (x0, _, _, m0), (x1, _, _, m1) in zip(prof, prof[1:]):
+        if m0 != m1:
+            out.append(0.5 * (x0 + x1))
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("build")
+    ap.add_argument("outdir")
+    ap.add_argument("--family", default="setup2", choices=sorted(FAMILIES))
+    ap.add_argument("--cell", type=float, help="[mm] cell size of both models (default: the scenes')")
+    ap.add_argument("--end", type=float, help="[s] end time")
+    ap.add_argument("--height", type=float, help="[m] N-DAM box height")
+    ap.add_argument("--interval", type=float, default=0.05, help="[s] output interval")
+    ap.add_argument("--times", type=float, nargs="*", help="[s] times of the error table")
+    ap.add_argument("--rerun", action="store_true", help="run even where a result exists")
+    args = ap.parse_args()
+    build = os.path.abspath(args.build)
+    L = FAMILIES[args.family]["length"]
+    dirs = {v: run_variant(build, args.family, v, args, args.outdir) for v in VARIANTS}
+    prof = {v: profiles(d) for v, d in dirs.items()}
+    summ = {v: json.load(open(os.path.join(d, "summary.json"))) for v, d in dirs.items()}
+    times = sorted(prof["full"])
+    table_times = args.times or [t for t in times if t > 0][-4:]
+    table_times = [min(times, key=lambda s: abs(s - t)) for t in table_times]
+
+    rows = []
+    for t in table_times:
+        ref = prof["full"][t]
+        for v in VARIANTS:
+            if t not in prof[v]:
+                continue
+            p = prof[v][t]
+            eh, mh, eu, mu = errors(ref, p) if v != "full" else (0, 0, 0, 0)
+            rows.append({"t": t, "run": v, "h_L2": eh, "h_max": mh, "u_L2": eu, "u_max": mu,
+                         "wall_depth": p[-1][1], "shock": shock(p, L),
+                         "interfaces": " ".join("%.3f" % x for x in interfaces(p))})
+    # ideal saving: the full run's material cells that lie in the dynamic run's 1D parts,
+    # summed over the outputs (equal time weights)
+    nz_dz = None
+    s_full = summ["full"]["parameters"]
+    mat_all = mat_1d = 0.0
+    for t in times:
+        if t not in prof["dynamic"]:
+            continue
+        dyn = on_grid(prof["full"][t], prof["dynamic"][t])
+        for (x, h, u, _), (_, _, _, m) in zip(prof["full"][t], dyn):
+            mat_all += h
+            if m == "1D":
+                mat_1d += h
+    ideal = mat_1d / mat_all if mat_all > 0 else 0.0
+    wall = {v: summ[v]["wall_time"]["total"] for v in VARIANTS}
+    achieved = 1.0 - wall["dynamic"] / wall["full"] if wall["full"] > 0 else 0.0
+
+    os.makedirs(args.outdir, exist_ok=True)
+    with open(os.path.join(args.outdir, "comparison.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    md = [f"# Layouts compared: {args.family}" + (f", {args.cell:g} mm" if args.cell else ""), ""]
+    md.append("| t [s] | run | h L2 | h max | u_mean L2 | u_mean max | wall depth [m] | shock [m] | interfaces [m] |")
+    md.append("|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        md.append(f"| {r['t']:g} | {r['run']} | {r['h_L2']:.3f} | {r['h_max']:.3f} | "
+                  f"{r['u_L2']:.3f} | {r['u_max']:.3f} | {r['wall_depth']:.4f} | "
+                  f"{r['shock']:.3f} | {r['interfaces']} |")
+    md += ["", "| run | wall time [s] | steps | moves | mass defect [m^2] | relative defect |",
+           "|---|---|---|---|---|---|"]
+    for v in VARIANTS:
+        s = summ[v]
+        moves = s.get("interfaces", {}).get("moves", 0)
+        md.append(f"| {v} | {wall[v]:.1f} | {s['steps']} | {moves} | "
+                  f"{s['mass_balance']['defect']:.2e} | {s['mass_balance']['relative_defect']:.2e} |")
+    md += ["", f"Ideal saving (share of the full 2D run's material in the dynamic run's 1D parts, "
+           f"averaged over the outputs): {100 * ideal:.1f} %; achieved (1 - wall time dynamic / "
+           f"full): {100 * achieved:.1f} %; achieved / ideal: "
+           f"{(achieved / ideal if ideal > 0 else float('nan')):.2f}.", ""]
+    open(os.path.join(args.outdir, "comparison.md"), "w").write("\n".join(md) + "\n")
+    print("\n".join(md))
+
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("compare_layouts: no matplotlib, no xt.png")
+        return
+    fig, ax = plt.subplots(figsize=(7, 5))
+    ts = [t for t in times if t in prof["dynamic"]]
+    xs = [p[0] for p in prof["dynamic"][ts[0]]]
+    H = [[p[1] for p in prof["dynamic"][t]] for t in ts]
+    if len(ts) > 1:
+        from matplotlib.colors import PowerNorm
+        m = ax.pcolormesh(xs, ts, H, shading="nearest", cmap="Greys", norm=PowerNorm(0.5))
+        fig.colorbar(m, ax=ax, label="h (dynamic run) [m]")
+    for v, colour, size in (("static", "b", 3), ("apriori", "g", 3), ("dynamic", "r", 5)):
+        pts = [(x, t) for t in ts if t in prof[v] for x in interfaces(prof[v][t])]
+        if pts:
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], colour + "o", ms=size,
+                    mfc="none" if v == "dynamic" else colour, label=f"interfaces, {v}")
+    sh = [(shock(prof["full"][t], L), t) for t in times if shock(prof["full"][t], L) < L]
+    if sh:
+        ax.plot([p[0] for p in sh], [p[1] for p in sh], "k-", lw=2, label="shock, full 2D")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("t [s]")
+    ax.set_title(f"{args.family}: interfaces and shock")
+    ax.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.outdir, "xt.png"), dpi=120)
+    print("wrote", os.path.join(args.outdir, "xt.png"))
+
+
+if __name__ == "__main__":
+    main()
