@@ -171,11 +171,21 @@ void NdamSolver::fill_velocity_ghosts(Field& u, Field& w, bool surface_rules) co
     boundary_faces(u, w);
   }
   const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
-  // u: tangential ghost rows below and above
+  // u: tangential ghost rows below and above, evaluated on the owned columns and on those
+  // beyond the end walls of the box. The ghost columns of a neighbour slab (or of the periodic
+  // wrap) take the owner's rows from the exchange below, like every other ghost value: the
+  // row's Ref can reach one face beyond its column (surface_face_ref: the opposite face of a
+  // Surface cell's empty side), which for the outermost ghost column lies outside the halo
+  // (the heap-buffer-overflow read of issue 13 item 8). On one rank without periodic sides
+  // the exchange is a no-op.
   for (int i = -G; i < nxl + G; ++i) {
+    const int gi = mac_.slab.i0 + i;
+    const bool beyond_wall = !cfg_.periodic_x() && (gi < 0 || gi >= cfg_.grid.nx);
+    if ((i < 0 || i >= nxl) && !beyond_wall) continue;
     u(i, -1) = detail::value(u_ref(i, -1), u);
     u(i, nz) = detail::value(u_ref(i, nz), u);
   }
+  mac_.exchange(u);
 }
 
 void NdamSolver::boundary_faces(Field& u, Field& w) const {

@@ -12,6 +12,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 namespace granflow::ndam {
 
@@ -36,6 +38,12 @@ NdamSolver::Ref NdamSolver::surface_face_ref(Comp c, int i, int k) const {
     ko = m1 ? k - 1 : k + 1;
   }
   if (mask & opp) return Ref{};
+  // The opposite face is one column beyond (i, k) for u: callers evaluate this only for
+  // columns whose neighbours are in the halo (fill_velocity_ghosts leaves the outermost ghost
+  // columns to the exchange), so reading beyond it is a bug, not a boundary case.
+  if (io < -Field::G || io >= mac_.slab.nx_local + Field::G)
+    throw std::logic_error("N-DAM: free-surface face (" + std::to_string(gi) + ", " +
+                           std::to_string(k) + ") follows a face outside the halo");
   Ref m = ref(c, io, ko);
   const Field& f = c == U ? u_ : w_;
   m.b += f(i, k) - f(io, ko);

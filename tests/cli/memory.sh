@@ -26,7 +26,8 @@ for s in dam cavity; do
   expect 5 "stopped at the step limit" $s.xml
   est=$(sed -n 's/^ *"estimate_bytes": \([0-9.e+]*\).*/\1/p' $s/summary.json)
   peak=$(sed -n 's/^ *"peak_resident_bytes_rank0": \([0-9.e+]*\).*/\1/p' $s/summary.json)
-  awk -v e="$est" -v p="$peak" -v s=$s 'BEGIN { r = e / p; printf "%s: estimate %.0f MB, peak %.0f MB, ratio %.3f\n", s, e / 1e6, p / 1e6, r;
-       exit !(r > 0.7 && r < 1.3) }' || fail "$s: the estimate is not within 30 % of the peak"
+  # SANITIZED (the ASan build, cli_tests.cmake): the peak includes the sanitizer's own memory
+  awk -v e="$est" -v p="$peak" -v s=$s -v san="${SANITIZED:-}" 'BEGIN { r = e / p; printf "%s: estimate %.0f MB, peak %.0f MB, ratio %.3f%s\n", s, e / 1e6, p / 1e6, r,
+       san != "" ? " (sanitizer build: not asserted)" : ""; exit !(san != "" || (r > 0.7 && r < 1.3)) }' || fail "$s: the estimate is not within 30 % of the peak"
 done
 echo "memory checks passed"
