@@ -17,17 +17,17 @@ namespace granflow::io {
 namespace {
 // Output times are compared with the round-off of t += dt (the run driver's tolerance).
 bool after(double t, double t_keep) { return t > t_keep + 1e-9 * std::max(1.0, std::abs(t_keep)); }
-}  // namespace
 
-// ---------------------------------------------------------------------------------------------
-// profiles.csv
-// ---------------------------------------------------------------------------------------------
-void ProfileWriter::open(const std::string& dir, double keep_until) {
-  const std::string file = dir + "/profiles.csv";
-  const char* header = "t,x,h,u_mean,eps,model";
+// Opens a CSV time series `file` with `header` for appending. keep_until < 0 (a fresh run):
+// truncated to the header. A restart (keep_until >= 0 and the file exists): the header and the
+// rows up to the checkpoint time are kept, in a new file that replaces the old one only once
+// complete. `row_time(line, t)` parses a row's time; false for a row cut short by a killed run
+// (skipped). `kept(line, t)` sees each kept row (may be empty).
+void open_series(std::ofstream& out, const std::string& file, const char* header,
+                 double keep_until, int precision,
+                 const std::function<bool(const std::string&, double&)>& row_time,
+                 const std::function<void(const std::string&, double)>& kept) {
   if (keep_until >= 0.0 && std::filesystem::exists(file)) {
-    // Restart: keep the header and the rows up to the checkpoint time, in a new file that
-    // replaces the old one only once complete.
     std::ifstream in(file);
     const std::string tmp = file + ".tmp";
     std::ofstream cut(tmp, std::ios::trunc);
@@ -36,22 +36,37 @@ void ProfileWriter::open(const std::string& dir, double keep_until) {
     std::string line;
     std::getline(in, line);  // header
     while (std::getline(in, line)) {
-      char* end = nullptr;
-      const double t = std::strtod(line.c_str(), &end);
-      if (end == line.c_str() || *end != ',') continue;  // a row cut short by a killed run
-      if (after(t, keep_until)) break;                   // rows are in time order
+      double t = 0.0;
+      if (!row_time(line, t)) continue;  // a row cut short by a killed run
+      if (after(t, keep_until)) break;   // rows are in time order
       cut << line << '\n';
+      if (kept) kept(line, t);
     }
     cut.close();
     if (!cut) throw std::runtime_error("cannot write '" + tmp + "'");
     std::filesystem::rename(tmp, file);
-    out_.open(file, std::ios::app);
+    out.open(file, std::ios::app);
   } else {
-    out_.open(file, std::ios::trunc);
-    if (out_) out_ << header << '\n';
+    out.open(file, std::ios::trunc);
+    if (out) out << header << '\n';
   }
-  if (!out_) throw std::runtime_error("cannot write '" + file + "'");
-  out_ << std::setprecision(10);
+  if (!out) throw std::runtime_error("cannot write '" + file + "'");
+  out << std::setprecision(precision);
+}
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// profiles.csv
+// ---------------------------------------------------------------------------------------------
+void ProfileWriter::open(const std::string& dir, double keep_until) {
+  // a restart keeps the rows up to the checkpoint time (open_series)
+  open_series(out_, dir + "/profiles.csv", "t,x,h,u_mean,eps,model", keep_until, 10,
+              [](const std::string& line, double& t) {
+                char* end = nullptr;
+                t = std::strtod(line.c_str(), &end);
+                return end != line.c_str() && *end == ',';
+              },
+              nullptr);
 }
 
 void ProfileWriter::write(double t, const core::Profile& p) {
@@ -86,46 +101,27 @@ void WallWriter::add(double t, const core::WallLoad& w) {
 }
 
 void WallWriter::open(const std::string& dir, double keep_until, double impact_window) {
-  const std::string file = dir + "/wall.csv";
-  const char* header = "t,force,normal_force,shear,p_foot,depth,contact";
   series_ = Series{};
   impact_window_ = impact_window;
-  if (keep_until >= 0.0 && std::filesystem::exists(file)) {
-    // Restart: the rows up to the checkpoint time, in a new file that replaces the old one once
-    // complete (as profiles.csv); they are written with 17 digits, so that the statistics read
-    // back are the straight run's to the last bit.
-    std::ifstream in(file);
-    const std::string tmp = file + ".tmp";
-    std::ofstream cut(tmp, std::ios::trunc);
-    if (!cut) throw std::runtime_error("cannot write '" + tmp + "'");
-    cut << header << '\n';
-    std::string line;
-    std::getline(in, line);  // header
-    while (std::getline(in, line)) {
-      double v[7];
-      const char* c = line.c_str();
-      bool ok = true;
-      for (int q = 0; q < 7 && ok; ++q) {
-        char* end = nullptr;
-        v[q] = std::strtod(c, &end);
-        ok = end != c && (q == 6 ? *end == '\0' : *end == ',');
-        c = end + 1;
-      }
-      if (!ok) continue;                  // a row cut short by a killed run
-      if (after(v[0], keep_until)) break;  // rows are in time order
-      cut << line << '\n';
-      add(v[0], core::WallLoad{v[1], v[2], v[3], v[4], v[5], v[6] != 0.0});
+  // A restart keeps the rows up to the checkpoint time (open_series) and reads them back into
+  // the series' statistics; they are written with 17 digits, so that the statistics read back
+  // are the straight run's to the last bit.
+  double v[7];
+  auto parse = [&v](const std::string& line, double& t) {
+    const char* c = line.c_str();
+    for (int q = 0; q < 7; ++q) {
+      char* end = nullptr;
+      v[q] = std::strtod(c, &end);
+      if (end == c || (q == 6 ? *end != '\0' : *end != ',')) return false;
+      c = end + 1;
     }
-    cut.close();
-    if (!cut) throw std::runtime_error("cannot write '" + tmp + "'");
-    std::filesystem::rename(tmp, file);
-    out_.open(file, std::ios::app);
-  } else {
-    out_.open(file, std::ios::trunc);
-    if (out_) out_ << header << '\n';
-  }
-  if (!out_) throw std::runtime_error("cannot write '" + file + "'");
-  out_ << std::setprecision(17);
+    t = v[0];
+    return true;
+  };
+  open_series(out_, dir + "/wall.csv", "t,force,normal_force,shear,p_foot,depth,contact",
+              keep_until, 17, parse, [&](const std::string&, double t) {
+                add(t, core::WallLoad{v[1], v[2], v[3], v[4], v[5], v[6] != 0.0});
+              });
 }
 
 void WallWriter::write(double t, const core::WallLoad& w) {
