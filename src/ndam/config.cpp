@@ -30,9 +30,30 @@ const char* to_string(PressureCoupling c) {
 }
 const char* to_string(WallKind k) { return kWallKinds[static_cast<std::size_t>(k)].c_str(); }
 
+// The momentum preconditioner switches on the stiffness S = nu_eff,max dt / h^2 (momentum.cpp):
+// symmetric Gauss-Seidel while S is small (flows: 5-25 GMRES iterations, no setup), smoothed
+// aggregation with u and w as two equations per node from S = kStiffThreshold on (deposits at
+// rest, where S reaches 1e4 and Gauss-Seidel needs 200-1000 iterations). Measurements:
+// docs/numerics.md, docs/validation.md.
 Teuchos::ParameterList NdamConfig::default_momentum_solver() {
-  return *solvers::LinearSystem::getValidParameters("N-DAM->Momentum solver", "GMRES",
-                                                    "Ifpack2 RELAXATION", 1e-10);
+  constexpr double kStiffThreshold = 300.0;
+  auto pl = *solvers::LinearSystem::getValidParameters("N-DAM->Momentum solver", "GMRES",
+                                                       "Ifpack2 RELAXATION", 1e-10);
+  // No lagged preconditioner: the matrix is reassembled in a step only because nu_eff or dt
+  // changed, and nu_eff changes by orders of magnitude where material starts or stops. A
+  // preconditioner of the previous step's matrix (same pattern) then needed 775-1000 GMRES
+  // iterations where a fresh one needs 13-18 (the lab chute's wall deposit at t = 2.3 s, both
+  // with Gauss-Seidel and with MueLu), and the runs stopped there.
+  pl.set("Preconditioner reuse", 0,
+         "assemblies of the same sparsity pattern for which a preconditioner may be reused "
+         "(lagged) before it is rebuilt. 0 (the default here): rebuild after every assembly; "
+         "the momentum matrix is reassembled only when nu_eff or dt changed, and a lagged "
+         "preconditioner failed where nu_eff jumps (material starting or stopping)");
+  solvers::LinearSystem::add_stiff_switch(
+      pl, "MueLu", kStiffThreshold,
+      "S = nu_eff,max dt / min(dx, dz)^2, the largest viscous diffusion number of the step "
+      "(nu_eff,max over the box, all ranks)");
+  return pl;
 }
 
 Teuchos::ParameterList NdamConfig::default_pressure_solver() {
