@@ -13,8 +13,25 @@
 //       are those of the scene's Decomposition (analysis::LayoutCriteria, and H = the wet-depth
 //       cut of a DAM with the default dry depth), so the command gives the layout that
 //       Decomposition->Layout = A priori builds from the same run.
+//   granflow-study budget RUN [--from T0] [--to T1] [--stretch XA XB] [--dam DAM_RUN]
+//                  [--cell-weights] [--out DIR]
+//       The depth-averaged x-momentum budget of a full 2D (N-DAM) run from its fields.h5 and
+//       profiles.csv (analysis/budget.hpp): d(h u)/dt + d(alpha h u^2)/dx against gravity, the
+//       depth-integrated pressure gradient, the viscous/plastic normal stress divergence and the
+//       bed friction (the Coulomb stress the model applies, and tan(delta) p_b), time-averaged
+//       over the snapshots in [T0, T1]; the residual along x, and the terms summed over the
+//       stretch [XA, XB] as the velocity change each gives the flow there. With --dam, the same
+//       budget of a DAM run of the scene with the DAM's closure, side by side. Writes
+//       DIR/budget.csv (and DIR/budget_dam.csv). --cell-weights: the column integrals over the
+//       material cells whole (the column the 2D momentum equation moves) instead of the
+//       markers' depth (profiles.csv's u_mean).
+#include "granflow/analysis/budget.hpp"
 #include "granflow/analysis/profiles.hpp"
+#include "granflow/core/material.hpp"
 #include "granflow/dam/dam_solver.hpp"
+#include "granflow/io/output.hpp"
+
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdlib>
@@ -22,6 +39,8 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <optional>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -42,6 +61,8 @@ int usage(std::ostream& os, int code) {
         "                      [--average-length L] [--out DIR]\n"
         "       granflow-study layout RUN --length L [--threshold E] [--margin M]\n"
         "                      [--min-length S] [--h-min H]\n"
+        "       granflow-study budget RUN [--from T0] [--to T1] [--stretch XA XB]\n"
+        "                      [--dam DAM_RUN] [--cell-weights] [--out DIR]\n"
         "RUN is a granflow output directory (it holds profiles.csv).\n";
   return code;
 }
@@ -158,6 +179,214 @@ int layout_cmd(int argc, char** argv) {
     std::cout << "  " << s.model << "  [" << s.x0 << ", " << s.x1 << "] m\n";
   return 0;
 }
+
+// --- budget ---------------------------------------------------------------------------------
+nlohmann::json run_parameters(const std::string& run) {
+  std::ifstream in(run + "/summary.json");
+  if (!in) throw std::runtime_error("no " + run + "/summary.json (a granflow run directory?)");
+  const auto s = nlohmann::json::parse(in);
+  return s;
+}
+
+double param(const nlohmann::json& s, std::initializer_list<const char*> path) {
+  const nlohmann::json* j = &s.at("parameters");
+  std::string name;
+  for (const char* p : path) {
+    j = &j->at(p);
+    name += (name.empty() ? "" : "->") + std::string(p);
+  }
+  if (!j->is_number()) throw std::runtime_error("summary.json parameter " + name + " is no number");
+  return j->get<double>();
+}
+
+// The profile of a run at time t (output times: 10 significant digits in profiles.csv).
+const ProfileAt& profile_at(const std::map<double, ProfileAt>& run, double t,
+                            const std::string& what) {
+  const ProfileAt* p = at_time(run, t);
+  if (!p) {
+    std::ostringstream os;
+    os << what << "/profiles.csv has no output at t = " << t << " s (its fields.h5 has)";
+    throw std::runtime_error(os.str());
+  }
+  return *p;
+}
+
+void write_budget(const std::string& file, const ColumnBudget& b) {
+  std::ofstream o(file);
+  o << "x,h,u_mean,alpha,dQdt,flux,gravity,pressure,viscous,friction,friction_bound,residual,"
+       "residual_bound,p_b\n"
+    << std::setprecision(8);
+  for (std::size_t i = 0; i < b.x.size(); ++i)
+    o << b.x[i] << ',' << b.h[i] << ',' << b.u_mean[i] << ',' << b.alpha[i] << ',' << b.dQdt[i]
+      << ',' << b.flux[i] << ',' << b.gravity[i] << ',' << b.pressure[i] << ',' << b.viscous[i]
+      << ',' << b.friction[i] << ',' << b.friction_bound[i] << ',' << b.residual[i] << ','
+      << b.residual_bound[i] << ',' << b.p_b[i] << '\n';
+}
+
+// Means of the per-column terms over the columns with centres in [x - w/2, x + w/2].
+std::vector<double> bin(const ColumnBudget& b, double x, double w) {
+  std::vector<const std::vector<double>*> f{&b.h,       &b.u_mean,   &b.alpha,    &b.dQdt,
+                                            &b.flux,    &b.gravity,  &b.pressure, &b.viscous,
+                                            &b.friction, &b.friction_bound, &b.residual, &b.p_b};
+  std::vector<double> m(f.size(), 0.0);
+  int n = 0;
+  for (std::size_t i = 0; i < b.x.size(); ++i) {
+    if (std::abs(b.x[i] - x) > 0.5 * w + 1e-12) continue;
+    ++n;
+    for (std::size_t q = 0; q < f.size(); ++q) m[q] += (*f[q])[i];
+  }
+  for (auto& v : m) v = n > 0 ? v / n : 0.0;
+  return m;
+}
+
+int budget_cmd(int argc, char** argv) {
+  if (argc < 3) return usage(std::cerr, 1);
+  const std::string run = argv[2];
+  double t0 = -1e300, t1 = 1e300, xa = 0.3, xb = 1.2;
+  std::string dam_run, out = run;
+  bool cells = false;
+  for (int i = 3; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> const char* {
+      if (i + 1 >= argc) { std::cerr << "granflow-study: " << a << " needs a value\n"; std::exit(1); }
+      return argv[++i];
+    };
+    if (a == "--from") t0 = number(a, next());
+    else if (a == "--to") t1 = number(a, next());
+    else if (a == "--stretch") {
+      xa = number(a, next());
+      xb = number(a, next());
+    } else if (a == "--dam") dam_run = next();
+    else if (a == "--cell-weights") cells = true;
+    else if (a == "--out") out = next();
+    else { std::cerr << "granflow-study: unknown option '" << a << "'\n"; return usage(std::cerr, 1); }
+  }
+  const auto sum = run_parameters(run);
+  if (sum.at("model") != "N-DAM")
+    throw std::runtime_error(run + " is a " + sum.at("model").get<std::string>() +
+                             " run; the budget needs a full 2D (N-DAM) run");
+  BudgetPhysics ph;
+  ph.g = param(sum, {"Material", "Gravity"});
+  ph.zeta = param(sum, {"Channel", "Slope angle"}) * M_PI / 180.0;
+  ph.tan_delta = std::tan(param(sum, {"Material", "Bed friction angle"}) * M_PI / 180.0);
+  ph.m_c = param(sum, {"N-DAM", "Friction regularisation"});
+  ph.bed = sum.at("parameters").at("N-DAM").at("Boundaries").at("Bottom").get<std::string>();
+  ph.cell_weights = cells;
+  const auto prof = read_profiles(run + "/profiles.csv");
+  const granflow::io::FieldReader fields(run + "/fields.h5");
+  std::vector<ColumnIntegrals> cols;
+  std::vector<double> times;
+  double x0 = 0.0, dx = 0.0;
+  for (std::size_t j = 0; j < fields.size(); ++j) {
+    const double t = fields.time(j);
+    if (t < t0 - 1e-9 || t > t1 + 1e-9) continue;
+    const auto meshes = fields.read(j);
+    const auto m = std::find_if(meshes.begin(), meshes.end(),
+                                [](const auto& q) { return q.name == "ndam"; });
+    if (m == meshes.end()) throw std::runtime_error("fields.h5 snapshot without an 'ndam' mesh");
+    Snapshot2D s;
+    s.t = t;
+    s.nx = static_cast<int>(m->x_nodes.size()) - 1;
+    s.nz = static_cast<int>(m->z_nodes.size()) - 1;
+    s.x0 = m->x_nodes.front();
+    s.dx = m->x_nodes[1] - m->x_nodes[0];
+    s.dz = m->z_nodes[1] - m->z_nodes[0];
+    for (const auto& [name, v] : m->cell_fields) {
+      if (name == "u") s.u = v;
+      else if (name == "p") s.p = v;
+      else if (name == "nu_eff") s.nu = v;
+      else if (name == "flag") s.flag = v;
+    }
+    s.h = profile_at(prof, t, run).h;
+    cols.push_back(column_integrals(s, ph));
+    times.push_back(t);
+    x0 = s.x0;
+    dx = s.dx;
+  }
+  if (times.size() < 2)
+    throw std::runtime_error("fewer than two field snapshots of " + run + " in [--from, --to]: "
+                             "the budget needs the time derivative (write fields more often)");
+  const ColumnBudget b = momentum_budget(cols, times, x0, dx, ph);
+  std::filesystem::create_directories(out);
+  write_budget(out + "/budget.csv", b);
+
+  std::optional<ColumnBudget> d;
+  if (!dam_run.empty()) {
+    const auto ds = run_parameters(dam_run);
+    if (ds.at("model") != "DAM")
+      throw std::runtime_error("--dam " + dam_run + " is not a DAM run");
+    granflow::core::Material mat;
+    mat.gravity = param(ds, {"Material", "Gravity"});
+    mat.internal_friction_deg = param(ds, {"Material", "Internal friction angle"});
+    mat.bed_friction_deg = param(ds, {"Material", "Bed friction angle"});
+    if (const double d1 = param(ds, {"DAM", "Bed friction angle"}); d1 >= 0.0)
+      mat.bed_friction_deg = d1;
+    granflow::dam::DamPhysics dp;
+    dp.K_act = mat.K_active();
+    dp.K_pas = mat.K_passive();
+    const std::string ep = ds.at("parameters").at("DAM").at("Earth pressure").get<std::string>();
+    using granflow::dam::EarthPressure;
+    dp.model = ep == "Active" ? EarthPressure::Active
+               : ep == "Passive" ? EarthPressure::Passive
+               : ep == "Isotropic" ? EarthPressure::Isotropic : EarthPressure::SavageHutter;
+    dp.k_smoothing = param(ds, {"DAM", "Earth pressure smoothing"});
+    BudgetPhysics dph = ph;
+    dph.tan_delta = mat.tan_delta();
+    const auto dprof = read_profiles(dam_run + "/profiles.csv");
+    std::vector<std::vector<double>> hs, us;
+    std::vector<double> dt;
+    double dx0 = 0.0, ddx = 0.0;
+    for (double t : times) {
+      const auto& p = profile_at(dprof, t, dam_run);
+      hs.push_back(p.h);
+      us.push_back(p.u);
+      dt.push_back(t);
+      ddx = p.x[1] - p.x[0];
+      dx0 = p.x[0] - 0.5 * ddx;
+    }
+    d = dam_budget(hs, us, dt, dx0, ddx, dph, [&](double ux) { return dp.K(ux); });
+    write_budget(out + "/budget_dam.csv", *d);
+  }
+
+  std::cout << std::fixed;
+  std::cout << "x-momentum budget of " << run << " over " << b.snapshots << " snapshots in ["
+            << std::setprecision(3) << b.t0 << ", " << b.t1 << "] s (time means, per unit "
+            << "density, m^2/s^2; x rho = N/m^2)\n"
+            << "  residual = d(hu)/dt + d(alpha h u^2)/dx - gravity - pressure - viscous - "
+               "friction (applied)\n"
+            << "    x |      h  u_mean  alpha | d(hu)/dt    flux  gravity pressure  viscous "
+               "friction tan.d*p_b | residual  % grav\n";
+  for (double x = std::ceil(xa * 10.0 - 1e-9) / 10.0; x <= xb + 1e-9; x += 0.1) {
+    const auto v = bin(b, x, 0.05);
+    std::cout << std::setprecision(2) << std::setw(5) << x << " | " << std::setprecision(4)
+              << std::setw(6) << v[0] << ' ' << std::setprecision(3) << std::setw(7) << v[1]
+              << ' ' << std::setw(6) << v[2] << " | " << std::setprecision(4);
+    for (int q = 3; q <= 10; ++q) std::cout << std::setw(8) << v[static_cast<std::size_t>(q)] << ' ';
+    std::cout << "| " << std::setprecision(1) << std::setw(7) << 100.0 * v[10] / v[5] << "\n";
+  }
+  auto show = [&](const char* name, const ColumnBudget& cb) {
+    const StretchBudget st = stretch(cb, xa, xb);
+    std::cout << std::setprecision(3) << name << ": stretch [" << xa << ", " << xb << "] m ("
+              << st.columns << " columns), q = " << std::setprecision(5) << st.q
+              << " m^2/s; sum of term dx [m^3/s^2] and term dx / q [m/s]:\n";
+    const std::pair<const char*, double> terms[] = {
+        {"d(hu)/dt", st.dQdt},       {"flux d(alpha h u^2)/dx", st.flux},
+        {"gravity", st.gravity},     {"pressure -d/dx int p", st.pressure},
+        {"viscous d/dx int 2nu u_x", st.viscous}, {"friction (applied)", st.friction},
+        {"friction tan(delta) p_b", st.friction_bound}, {"residual", st.residual},
+        {"residual (with tan(delta) p_b)", st.residual_bound}};
+    for (const auto& [n, v] : terms)
+      std::cout << "  " << std::setw(32) << std::left << n << std::right << std::setprecision(6)
+                << std::setw(11) << v << "  " << std::setprecision(4) << std::setw(8)
+                << (st.q != 0.0 ? v / st.q : 0.0) << "\n";
+    return st;
+  };
+  show("2D", b);
+  if (d) show("DAM", *d);
+  std::cout << "wrote " << out << "/budget.csv" << (d ? ", " + out + "/budget_dam.csv" : "")
+            << "\n";
+  return 0;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -166,6 +395,7 @@ int main(int argc, char** argv) {
   try {
     if (cmd == "compare") return compare_cmd(argc, argv);
     if (cmd == "layout") return layout_cmd(argc, argv);
+    if (cmd == "budget") return budget_cmd(argc, argv);
     if (cmd == "--help" || cmd == "-h") return usage(std::cout, 0);
   } catch (const std::exception& e) {
     std::cerr << "granflow-study: " << e.what() << "\n";

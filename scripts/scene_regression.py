@@ -6,8 +6,9 @@
 
 `run` copies each scene of inputs/ to OUTDIR/<scene>/scene.xml with its Output->Directory
 pointed at OUTDIR/<scene>/out and runs BUILD/apps/granflow on it.  `diff` compares two such
-trees: profiles.csv value by value and the physics numbers of summary.json (final time, steps,
-mass balance, layout, solver iteration counts; wall times, dates and host data are left out).
+trees: profiles.csv and wall.csv (when both have it) value by value and the physics numbers of
+summary.json (final time, steps, mass balance, layout, solver iteration counts; wall times,
+dates and host data are left out).
 With the default tolerance 0 the comparison is bit for bit (the numbers are printed with
 round-trip precision); a refactoring that keeps the arithmetic order must pass it. A change
 that reorders arithmetic states its per-scene tolerance and passes `--tolerance`.
@@ -123,6 +124,21 @@ def diff(args):
                         worst = max(worst, rel)
                 if worst > args.tolerance:
                     problems.append(f"profiles.csv: largest relative difference {worst:.3g}")
+            # wall.csv (chutes that end at a wall): the wall load at every step
+            wa, wb = os.path.join(pa, "wall.csv"), os.path.join(pb, "wall.csv")
+            if os.path.exists(wa) and os.path.exists(wb):
+                ra_, rb_ = list(csv.reader(open(wa))), list(csv.reader(open(wb)))
+                if len(ra_) != len(rb_):
+                    problems.append(f"wall.csv: {len(ra_)} rows against {len(rb_)}")
+                else:
+                    worst = 0.0
+                    for x, y in zip(ra_[1:], rb_[1:]):
+                        for va, vb in zip(x, y):
+                            if va != vb:
+                                fa, fb = float(va), float(vb)
+                                worst = max(worst, abs(fa - fb) / max(abs(fa), abs(fb), 1e-300))
+                    if worst > args.tolerance:
+                        problems.append(f"wall.csv: largest relative difference {worst:.3g}")
             sa = physics(json.load(open(os.path.join(pa, "summary.json"))))
             sb = physics(json.load(open(os.path.join(pb, "summary.json"))))
             for k in sorted(set(sa) | set(sb)):

@@ -235,7 +235,7 @@ const std::vector<std::string>& output_file_names() {
   static const std::vector<std::string> names{
       "run.json",      "summary.json",       "profiles.csv", "profiles.csv.tmp", "fields.h5",
       "fields.xdmf",   "fields.xdmf.tmp",    "checkpoint.h5", "checkpoint.h5.tmp",
-      "run.json.tmp"};
+      "run.json.tmp",  "wall.csv",           "wall.csv.tmp"};
   return names;
 }
 

@@ -46,7 +46,8 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidOutputParameters(
     auto pl = Teuchos::rcp(new Teuchos::ParameterList("Output"));
     const RunControl d;
     add_string(*pl, "Directory", d.directory,
-               "run directory for profiles.csv, fields.h5/.xdmf, checkpoint.h5, summary.json; "
+               "run directory for profiles.csv, fields.h5/.xdmf, checkpoint.h5, summary.json "
+               "(and wall.csv when the channel ends at a wall); "
                "relative to the current working directory; created if missing");
     add_double(*pl, "Interval", d.output_interval,
                "[s] simulated time between outputs (profiles, fields, checkpoint); the time step "
@@ -59,6 +60,13 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidOutputParameters(
                "checkpoint.h5 of an earlier run of the same scene to resume from (empty: start "
                "from the initial condition); relative to the current working directory, like "
                "'Directory'");
+    add_double(*pl, "Impact window", d.impact_window,
+               "[s] channels that end at a wall (wall.csv, the wall load at every accepted "
+               "step): summary.json reports as the impact peak the largest load within this "
+               "time after the material first reaches the wall (the wall column holds a cell "
+               "height of it), beside the peak of the whole run (which the growing deposit can "
+               "reach later)",
+               1e-9, 1e9);
     return pl;
   }();
   return valid;
@@ -78,6 +86,7 @@ RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
   r.checkpoint = out.get<bool>("Checkpoint");
   r.progress = out.get<bool>("Progress");
   r.restart_from = out.get<std::string>("Restart from");
+  r.impact_window = out.get<double>("Impact window");
   if (!r.restart_from.empty() && !std::filesystem::exists(r.restart_from))
     params::fail(out, "Restart from", r.restart_from,
                  "no such file; allowed: the checkpoint.h5 of an earlier run, or empty");
@@ -90,6 +99,8 @@ RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
 struct Simulation::Io {
   io::ProfileWriter profiles;
   io::Hdf5FieldOutput fields;
+  io::WallWriter wall;
+  bool wall_on = false;  // the model ends at a wall: wall.csv (every rank knows it)
   std::unique_ptr<DirectoryLock> lock;  // rank 0, for the whole run
 };
 
@@ -272,6 +283,15 @@ std::vector<LayoutPiece> Stepper::layout_pieces() const {
   return {{p.model.front(), p.x.front() - half, p.x.back() + half}};
 }
 
+// The wall load of the current state, one row of wall.csv. Sampled at the initial state and
+// after every accepted step, not at the output times: the impact peak lasts a few steps, and a
+// series sampled at the output interval would report whatever the interval happens to catch.
+void Simulation::sample_wall() {
+  if (!io_->wall_on) return;
+  const auto w = model_->wall_load();  // collective
+  if (w && io_rank()) io_->wall.write(model_->time(), *w);
+}
+
 void Simulation::write_output() {
   const auto t1 = Clock::now();
   const double t = model_->time();
@@ -291,6 +311,7 @@ void Simulation::write_output() {
     if (layouts_.empty() || !same(layouts_.back().second, pieces))
       layouts_.emplace_back(t, std::move(pieces));
   }
+  if (io_->wall_on && io_rank()) io_->wall.flush();
   if (rc_.fields) {
     io::FieldWriter w;
     model_->write_fields(w);
@@ -301,6 +322,39 @@ void Simulation::write_output() {
   last_output_t_ = t;
   phase_seconds_["output"] += std::chrono::duration<double>(Clock::now() - t1).count();
   show_progress(false, true);
+}
+
+// summary.json's "wall_load": the extremes of the wall.csv series (the whole run, also across
+// restarts: the writer re-reads the rows it keeps).
+nlohmann::json Simulation::wall_summary() const {
+  const auto& sr = io_->wall.series();
+  auto peak = [](const io::WallWriter::Extreme& e) {
+    nlohmann::json q{{"peak", e.max}, {"peak_time", e.t_max}, {"final", e.last}};
+    q["impact_peak"] = e.t_impact >= 0.0 ? nlohmann::json(e.impact) : nlohmann::json();
+    q["impact_peak_time"] = e.t_impact >= 0.0 ? nlohmann::json(e.t_impact) : nlohmann::json();
+    return q;
+  };
+  nlohmann::json j;
+  j["file"] = "wall.csv";
+  j["sampling"] = "the initial state and every accepted step";
+  j["units"] = {{"force", "N/m"}, {"normal_force", "N/m"}, {"shear", "N/m"}, {"p_foot", "Pa"},
+                {"depth", "m"}};
+  j["note"] = "loads on the end wall per unit width: force = rho int p dz (p taken to the wall), "
+              "normal_force = rho int (p - 2 nu_eff u_x) dz, shear = rho int tau_xz dz (+: up "
+              "the wall), p_foot = rho p of the bottom cell of the wall column "
+              "(docs/numerics.md, 'Wall load'); impact_peak: the largest value within "
+              "impact_window (Output->Impact window) after the first contact (the wall column "
+              "holds one cell height of material), peak: of the whole run";
+  j["samples"] = sr.samples;
+  j["first_contact_time"] = sr.t_contact >= 0.0 ? nlohmann::json(sr.t_contact) : nlohmann::json();
+  j["impact_window"] = rc_.impact_window;
+  j["force"] = peak(sr.force);
+  j["normal_force"] = peak(sr.normal);
+  j["p_foot"] = peak(sr.p_foot);
+  j["depth"] = peak(sr.depth);
+  j["shear"] = {{"max", sr.shear.max}, {"max_time", sr.shear.t_max}, {"min", sr.shear.min},
+                {"min_time", sr.shear.t_min}, {"final", sr.shear.last}};
+  return j;
 }
 
 void Simulation::write_summary(const std::string& status, const std::string& reason, int code) {
@@ -362,7 +416,9 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   }
   s["interfaces"] = {{"positions_over_time", layout}, {"moves", moves}};
   s["outputs"] = {{"snapshots", outputs_}, {"directory", rc_.directory}, {"files", files_}};
+  if (io_->wall_on) s["wall_load"] = wall_summary();
   if (!io_rank()) return;
+  if (io_->wall_on) io_->wall.flush();
   // Serialise before the file is opened, and replace bytes that are not UTF-8 instead of
   // throwing: a string that slipped through must not leave a 0-byte summary.json at the end of
   // a run whose results are on disk.
@@ -455,6 +511,8 @@ int Simulation::run() {
   agree_on_error(err);
   if (!err.empty()) throw params::InputError(err);
   files_ = {"run.json", "summary.json", "profiles.csv"};
+  io_->wall_on = model_->end_wall();
+  if (io_->wall_on) files_.push_back("wall.csv");
   if (rc_.fields) files_.insert(files_.end(), {"fields.h5", "fields.xdmf"});
   if (rc_.checkpoint) files_.push_back("checkpoint.h5");
   if (restarted_)  // the earlier parts of this run wrote into this directory too
@@ -504,11 +562,13 @@ int Simulation::advance(const io::Checkpoint& ck) {
     // restart writes again.
     const double keep = restarted_ ? t0_ : -1.0;
     io_->profiles.open(rc_.directory, keep);
+    if (io_->wall_on) io_->wall.open(rc_.directory, keep, rc_.impact_window);
     if (rc_.fields) io_->fields.open(rc_.directory, keep);
     else if (restarted_) io::truncate_fields(rc_.directory, t0_);
   }
   if (!restarted_) {
     model_->adapt();  // the layout of t0 (a dynamic layout's first check)
+    sample_wall();
     write_output();
   }
 
@@ -540,8 +600,11 @@ int Simulation::advance(const io::Checkpoint& ck) {
       return kDiverged;
     }
     // Land exactly on the next output or end time; split the last two steps before it evenly
-    // rather than leaving a sliver step.
-    const double to_target = std::min(next_output, rc_.end_time) - t;
+    // rather than leaving a sliver step. An end time that is an output time (to round-off: 0.6
+    // against 6 x 0.1) is that output time, so that a run that ends there and one that goes on
+    // take the same steps to it (a restart from the first then continues the second bit for bit).
+    const double end = std::abs(rc_.end_time - next_output) <= eps_t ? next_output : rc_.end_time;
+    const double to_target = std::min(next_output, end) - t;
     double dt = std::min({stable, rc_.max_dt});
     if (to_target <= dt) dt = to_target;
     else if (to_target < 1.5 * dt) dt = 0.5 * to_target;
@@ -568,6 +631,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
     const auto t3 = Clock::now();
     model_->adapt();
     phase_seconds_["layout"] += std::chrono::duration<double>(Clock::now() - t3).count();
+    sample_wall();
     if (model_->time() >= next_output - eps_t) {
       write_output();
       next_output = output_time(++next_index_);

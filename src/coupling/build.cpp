@@ -58,7 +58,10 @@ std::unique_ptr<CoupledModel> build(const Decomposition& layout, const core::Mat
     const auto [x0, x1] = d.extent(i, c.length);
     parts.push_back(factory->initial(d.models[i], x0, x1, Neighbours{i > 0, i + 1 < n}));
   }
-  return std::make_unique<CoupledModel>(std::move(parts), factory->interface_options(), factory);
+  auto model =
+      std::make_unique<CoupledModel>(std::move(parts), factory->interface_options(), factory);
+  model->set_subcycling(d.subcycling);
+  return model;
 }
 
 }  // namespace granflow::coupling

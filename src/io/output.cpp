@@ -62,6 +62,83 @@ void ProfileWriter::write(double t, const core::Profile& p) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// wall.csv
+// ---------------------------------------------------------------------------------------------
+void WallWriter::Extreme::add(double t, double v, bool first, bool impact_window) {
+  if (first || v > max) max = v, t_max = t;
+  if (first || v < min) min = v, t_min = t;
+  if (impact_window && (t_impact < 0.0 || v > impact)) impact = v, t_impact = t;
+  last = v;
+}
+
+void WallWriter::add(double t, const core::WallLoad& w) {
+  const bool first = series_.samples == 0;
+  if (first) series_.t_first = t;
+  series_.t_last = t;
+  if (series_.t_contact < 0.0 && w.contact) series_.t_contact = t;
+  const bool in = series_.t_contact >= 0.0 && t <= series_.t_contact + impact_window_;
+  series_.force.add(t, w.force, first, in);
+  series_.normal.add(t, w.normal, first, in);
+  series_.shear.add(t, w.shear, first, in);
+  series_.p_foot.add(t, w.p_foot, first, in);
+  series_.depth.add(t, w.depth, first, in);
+  ++series_.samples;
+}
+
+void WallWriter::open(const std::string& dir, double keep_until, double impact_window) {
+  const std::string file = dir + "/wall.csv";
+  const char* header = "t,force,normal_force,shear,p_foot,depth,contact";
+  series_ = Series{};
+  impact_window_ = impact_window;
+  if (keep_until >= 0.0 && std::filesystem::exists(file)) {
+    // Restart: the rows up to the checkpoint time, in a new file that replaces the old one once
+    // complete (as profiles.csv); they are written with 17 digits, so that the statistics read
+    // back are the straight run's to the last bit.
+    std::ifstream in(file);
+    const std::string tmp = file + ".tmp";
+    std::ofstream cut(tmp, std::ios::trunc);
+    if (!cut) throw std::runtime_error("cannot write '" + tmp + "'");
+    cut << header << '\n';
+    std::string line;
+    std::getline(in, line);  // header
+    while (std::getline(in, line)) {
+      double v[7];
+      const char* c = line.c_str();
+      bool ok = true;
+      for (int q = 0; q < 7 && ok; ++q) {
+        char* end = nullptr;
+        v[q] = std::strtod(c, &end);
+        ok = end != c && (q == 6 ? *end == '\0' : *end == ',');
+        c = end + 1;
+      }
+      if (!ok) continue;                  // a row cut short by a killed run
+      if (after(v[0], keep_until)) break;  // rows are in time order
+      cut << line << '\n';
+      add(v[0], core::WallLoad{v[1], v[2], v[3], v[4], v[5], v[6] != 0.0});
+    }
+    cut.close();
+    if (!cut) throw std::runtime_error("cannot write '" + tmp + "'");
+    std::filesystem::rename(tmp, file);
+    out_.open(file, std::ios::app);
+  } else {
+    out_.open(file, std::ios::trunc);
+    if (out_) out_ << header << '\n';
+  }
+  if (!out_) throw std::runtime_error("cannot write '" + file + "'");
+  out_ << std::setprecision(17);
+}
+
+void WallWriter::write(double t, const core::WallLoad& w) {
+  out_ << t << ',' << w.force << ',' << w.normal << ',' << w.shear << ',' << w.p_foot << ','
+       << w.depth << ',' << (w.contact ? 1 : 0) << '\n';
+  // flushed by the caller's schedule (every output time and at the end): one flush per step
+  // would be a system call per step
+  add(t, w);
+}
+
+void WallWriter::flush() { out_.flush(); }
+
+// ---------------------------------------------------------------------------------------------
 // HDF5 helpers
 // ---------------------------------------------------------------------------------------------
 namespace {
@@ -107,10 +184,14 @@ struct H5Handle {
   H5Handle(H5Handle&& o) noexcept : id(o.id), close(o.close) { o.id = -1; }
 };
 
+// rows x cols values; a single row is a 1-D dataset unless `matrix` (cell fields keep the
+// shape of their mesh's cells, nz x nx, so that the XDMF's declared shape is the dataset's and
+// ParaView maps one value to each cell also for the 1D models' one-row strip).
 void write_dataset(hid_t loc, const std::string& name, const std::vector<double>& v,
-                   hsize_t rows, hsize_t cols) {
+                   hsize_t rows, hsize_t cols, bool matrix = false) {
   hsize_t dims[2] = {rows, cols};
-  H5Handle space(H5Screate_simple(rows > 1 ? 2 : 1, rows > 1 ? dims : dims + 1, nullptr),
+  const bool two = rows > 1 || matrix;
+  H5Handle space(H5Screate_simple(two ? 2 : 1, two ? dims : dims + 1, nullptr),
                  H5Sclose, "dataspace for " + name);
   H5Handle ds(H5Dcreate2(loc, name.c_str(), H5T_IEEE_F64LE, space.id, H5P_DEFAULT, H5P_DEFAULT,
                          H5P_DEFAULT),
@@ -283,6 +364,38 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
              "create " + file);
 }
 
+FieldReader::FieldReader(const std::string& file) : file_(file) {
+  quiet_hdf5();
+  H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + file);
+  std::vector<std::pair<double, std::string>> snaps;
+  for (const auto& s : children(f.id)) {
+    H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s + " in " + file);
+    snaps.emplace_back(read_attr(g.id, "time"), s);
+  }
+  std::sort(snaps.begin(), snaps.end());
+  for (const auto& [t, s] : snaps) {
+    times_.push_back(t);
+    groups_.push_back(s);
+  }
+}
+
+std::vector<FieldWriter::Mesh> FieldReader::read(std::size_t i) const {
+  quiet_hdf5();
+  H5Handle f(H5Fopen(file_.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + file_);
+  const std::string& s = groups_.at(i);
+  H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s + " in " + file_);
+  std::vector<FieldWriter::Mesh> meshes;
+  for (const auto& m : children(g.id)) {
+    H5Handle mg(H5Gopen2(g.id, m.c_str(), H5P_DEFAULT), H5Gclose, "open " + s + "/" + m);
+    FieldWriter::Mesh mesh{m, read_dataset(mg.id, "x_nodes"), read_dataset(mg.id, "z_nodes"), {}};
+    for (const auto& fld : children(mg.id))
+      if (fld != "x_nodes" && fld != "z_nodes")
+        mesh.cell_fields.emplace_back(fld, read_dataset(mg.id, fld));
+    meshes.push_back(std::move(mesh));
+  }
+  return meshes;
+}
+
 void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
   quiet_hdf5();
   const std::string file = dir_ + "/fields.h5";
@@ -302,7 +415,7 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
       FieldWriter::Mesh lm{m.name, m.x_nodes, m.z_nodes, {}};
       for (const auto& [name, v] : m.cell_fields) {
         if (v.size() != nx * nz) throw std::logic_error("field " + name + " has the wrong size");
-        write_dataset(mg.id, name, v, nz, nx);
+        write_dataset(mg.id, name, v, nz, nx, true);
         lm.cell_fields.emplace_back(name, std::vector<double>{});
       }
       layout.push_back(std::move(lm));
@@ -330,11 +443,10 @@ void Hdf5FieldOutput::write_xdmf() const {
       for (const auto& m : layouts_[s]) {
         const std::size_t nx = m.x_nodes.size(), nz = m.z_nodes.size();
         const std::string base = "fields.h5:/" + sname + "/" + m.name + "/";
-        // The cell fields' declared shape is the dataset's: write_dataset stores a mesh with one
-        // row of cells (the 1D models' strip) as a 1-D dataset of nx - 1 values.
+        // The cell fields' declared shape is the dataset's, nz - 1 x nx - 1 (also 1 x nx - 1 for
+        // the 1D models' one-row strip: ParaView's XDMF reader needs the cells' shape there).
         std::ostringstream cells;
-        if (nz - 1 > 1) cells << nz - 1 << " ";
-        cells << nx - 1;
+        cells << nz - 1 << " " << nx - 1;
         x << "    <Grid Name=\"" << m.name << "\" GridType=\"Uniform\">\n"
           << "     <Topology TopologyType=\"2DRectMesh\" Dimensions=\"" << nz << " " << nx
           << "\"/>\n"

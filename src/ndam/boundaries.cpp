@@ -134,11 +134,16 @@ NdamSolver::Ref NdamSolver::ref(Comp c, int i, int k) const {
   return c == U ? u_ref(i, k) : w_ref(i, k);
 }
 
-void NdamSolver::fill_velocity_ghosts(Field& u, Field& w) const {
+// The ghost values of (u, w): neighbour slabs, walls, and (surface_rules) the free-surface
+// conditions of the current flags on the faces next to Empty cells. Those rules are not
+// idempotent (a Surface cell with two opposite empty sides keeps the difference of its last
+// values), so a state that already holds them (a checkpoint, NdamState::surface_applied) is
+// filled without them: it then has the ghosts the straight run had.
+void NdamSolver::fill_velocity_ghosts(Field& u, Field& w, bool surface_rules) const {
   mac_.exchange(u);
   mac_.exchange(w);
   boundary_faces(u, w);
-  if (cfg_.free_surface) {
+  if (cfg_.free_surface && surface_rules) {
     // The free-surface faces of the owned columns and of one ghost column on each side are set
     // redundantly on both ranks from the same data (each such face depends only on its own
     // surface cell), then the exchange makes the ghosts the owners' values.

@@ -106,6 +106,59 @@ void NdamSolver::write_fields(io::FieldWriter& wr) const {
   m.cell_fields.emplace_back("flag", mac_.gather_cells(fl, true));
 }
 
+bool NdamSolver::end_wall() const {
+  return cfg_.free_surface && !cfg_.periodic_x() && !cfg_.outflow_right;
+}
+
+// The load on the end wall x = L from the wall column i = nx - 1 (owned by the last rank,
+// broadcast). Per unit width, rho times (docs/numerics.md, "Wall load"):
+//   force  = sum_k (p_k + g sin(zeta) dx / 2) dz                       over the material cells,
+//   normal = sum_k (p_k + g sin(zeta) dx / 2 - 2 nu_k (0 - u*_{nx-2,k}) / dx) dz,
+//   shear  = -sum_k tau_xz(L, z_k) dz,   tau_xz = nu_c (w*_ghost,k - w*_{nx-1,k}) / dx  (w faces).
+// The pressure p^{n+1} is taken to the wall by the downslope gravity over the half cell (the
+// wall holds the half cell's weight; the value the Coulomb law of the end wall uses,
+// boundaries.cpp). The viscous stresses are the ones the step applied: nu_eff of the step (t^n)
+// and the velocity u*, w* of the implicit viscous solve, with the ghost w* beyond the wall (the
+// Coulomb Robin factor of the step, or the mirror of a no-slip or free-slip wall) and the
+// stencil's corner viscosity nu_c (zero at a corner on the free surface); the wall face is
+// wall-normal (u = 0), so du/dz does not enter tau_xz. Not u^{n+1}: where the material is
+// (nearly) rigid, nu_eff ~ tau_y m_y and nu_eff dt / dx^2 reaches 10^3, so the projection's
+// change of u, dt grad phi, changes 2 nu_eff D by more than the stress itself (measured: the
+// impulse balance of a block hitting a wall, tests/ndam/test_ndam_wall.cpp, misses 30 % of
+// the block's momentum with u^{n+1}, 1 % with u*). Material cells count whole (dz): the Surface
+// cell's pressure is the free-surface value, about 0.
+std::optional<core::WallLoad> NdamSolver::wall_load() const {
+  if (!end_wall()) return std::nullopt;
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz, nxl = mac_.slab.nx_local;
+  const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz(), rho = phys_.density;
+  double v[5] = {0.0, 0.0, 0.0, 0.0, 0.0};  // force, normal, shear, p_foot, depth
+  const int last = mac_.slab.ranks - 1;
+  if (mac_.slab.rank == last) {
+    // u*, w* of the last step; a state that has not been stepped since it was built or loaded
+    // has only u, w (import_state sets u* = u).
+    const Field& us = u_star_;
+    const Field& ws = w_star_;
+    const int i = nxl - 1, gi = nx - 1;
+    for (int k = 0; k < nz; ++k) {
+      if (!mac_.fluid(gi, k)) continue;
+      const double pw = p_(i, k) + 0.5 * dx * phys_.gx;
+      const double ux = (0.0 - us(i - 1, k)) / dx;
+      v[0] += rho * pw * dz;
+      v[1] += rho * (pw - 2.0 * nu_(i, k) * ux) * dz;
+    }
+    for (int k = 0; k < nz - 1; ++k) {
+      const double wg = detail::value(w_ref(i + 1, k), ws);
+      v[2] -= rho * nu_corner(i, k) * (wg - ws(i, k)) / dx * dz;
+    }
+    v[3] = mac_.fluid(gi, 0) ? rho * p_(i, 0) : 0.0;
+    v[4] = col_h_.empty() ? 0.0 : col_h_[static_cast<std::size_t>(gi)];
+  }
+  MPI_Bcast(v, 5, MPI_DOUBLE, last, comm_);
+  // contact: the marker depth of the wall column reaches a cell height (a coupled run's 2D part
+  // sees the DAM front's thin film up to 0.05 s before the layer itself)
+  return core::WallLoad{v[0], v[1], v[2], v[3], v[4], v[4] >= dz};
+}
+
 NdamState NdamSolver::export_state() const {
   NdamState s;
   s.t = t_;
@@ -155,6 +208,7 @@ NdamState NdamSolver::export_state() const {
               mac_.slab.ranks - 1, comm_);
     s.momentum_dt = momentum_dt_;
   }
+  s.surface_applied = true;
   return s;
 }
 
@@ -202,8 +256,8 @@ void NdamSolver::import_state(const NdamState& s) {
   const int G = Field::G, nxl = mac_.slab.nx_local;
   const bool factors = s.bed_factor.size() == static_cast<std::size_t>(cfg_.grid.nx + 2 * G) &&
                        s.wall_factor.size() == static_cast<std::size_t>(cfg_.grid.nz);
-  if (factors) {
-    // the factors the straight run's next step reads: the lagged ones of its last step
+  // the factors the straight run's next step reads: the lagged ones of its last step
+  auto restore_factors = [&] {
     for (int i = -G; i < nxl + G; ++i) {
       const int gi = mac_.slab.i0 + i;
       if (gi >= -G && gi < cfg_.grid.nx + G)
@@ -211,8 +265,9 @@ void NdamSolver::import_state(const NdamState& s) {
     }
     exchange_bed_factors();
     wall_a_ = s.wall_factor;
-  }
-  fill_velocity_ghosts(u_, w_);
+  };
+  if (factors) restore_factors();
+  fill_velocity_ghosts(u_, w_, !s.surface_applied);
   fill_scalar_ghosts(p_);
   if (!factors) {
     // a state without them (a box rebuilt from converted columns): from the state itself
@@ -220,19 +275,15 @@ void NdamSolver::import_state(const NdamState& s) {
     fill_velocity_ghosts(u_, w_);
   }
   update_viscosity(p_);
-  if (factors) {  // update_viscosity also set the factors: the lagged ones are what step() reads
-    for (int i = -G; i < nxl + G; ++i) {
-      const int gi = mac_.slab.i0 + i;
-      if (gi >= -G && gi < cfg_.grid.nx + G)
-        bed_a_[static_cast<std::size_t>(i + G)] = s.bed_factor[static_cast<std::size_t>(gi + G)];
-    }
-    exchange_bed_factors();
-    wall_a_ = s.wall_factor;
-  }
+  if (factors) restore_factors();  // update_viscosity set them anew: step() reads the lagged ones
   if (markers_) update_profile_cache();
   u_new_ = u_;
   w_new_ = w_;
   p_new_ = p_;
+  // No step has run on this state: the wall load takes its viscous stresses from u, w (the
+  // next step overwrites these; nothing a step reads depends on them).
+  u_star_ = u_;
+  w_star_ = w_;
 }
 
 void NdamSolver::save(io::Checkpoint& c) const {
@@ -268,6 +319,7 @@ void NdamSolver::save(io::Checkpoint& c) const {
   c.set("ndam/bed_factor", s.bed_factor);
   c.set("ndam/wall_factor", s.wall_factor);
   c.set("ndam/momentum_dt", s.momentum_dt);
+  c.set("ndam/surface_applied", s.surface_applied ? 1.0 : 0.0);
 }
 
 void NdamSolver::load(const io::Checkpoint& c) {
@@ -307,6 +359,8 @@ void NdamSolver::load(const io::Checkpoint& c) {
     s.wall_factor = c.array("ndam/wall_factor");
     s.momentum_dt = c.scalar("ndam/momentum_dt");
   }
+  s.surface_applied = c.scalars().count("ndam/surface_applied") &&
+                      c.scalar("ndam/surface_applied") != 0.0;
   import_state(s);
 }
 

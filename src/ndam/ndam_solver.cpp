@@ -149,6 +149,8 @@ void NdamSolver::rest_state() {
   u_new_ = u_;
   w_new_ = w_;
   p_new_ = p_;
+  u_star_ = u_;  // the wall load of the initial state (no step yet)
+  w_star_ = w_;
 }
 
 NdamSolver::~NdamSolver() = default;

@@ -166,7 +166,7 @@ Scene load(const std::string& file) {
   return s;
 }
 
-std::unique_ptr<core::Stepper> build_model(const Scene& s) {
+std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
   const auto& p = *s.params;
   try {
     const auto material = core::Material::from_parameters(p.sublist("Material"));
@@ -195,11 +195,12 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
       // a dynamic layout may create 2D subdomains later: it always configures the 2D model
       if (!any_2d && !dynamic) return coupling::build(d, material, channel, cfg, init);
       int ranks = 1;
-      MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+      MPI_Comm_size(comm, &ranks);
       auto user_sub = [&](const char* n) {
         return s.user->isSublist(n) ? &s.user->sublist(n) : nullptr;
       };
       coupling::TwoD two_d;
+      two_d.comm = comm;
       two_d.cfg = ndam::NdamConfig::from_parameters(p.sublist("N-DAM"), user_sub("N-DAM"),
                                                     channel, ranks);
       if (!two_d.cfg.free_surface)
@@ -227,7 +228,7 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
     if (s.model == "N-DAM") {
       // The 2D model runs on the communicator of the run (the app's GlobalMPISession).
       int ranks = 1;
-      MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+      MPI_Comm_size(comm, &ranks);
       auto user_sub = [&](const char* n) {
         return s.user->isSublist(n) ? &s.user->sublist(n) : nullptr;
       };
@@ -235,7 +236,7 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s) {
           ndam::NdamConfig::from_parameters(p.sublist("N-DAM"), user_sub("N-DAM"), channel, ranks);
       const auto rheo =
           ndam::Rheology::from_parameters(p.sublist("Rheology"), user_sub("Rheology"), material);
-      return std::make_unique<ndam::NdamSolver>(MPI_COMM_WORLD, cfg, rheo,
+      return std::make_unique<ndam::NdamSolver>(comm, cfg, rheo,
                                                 ndam::NdamPhysics::from(material, channel));
     }
   } catch (const params::InputError& e) {

@@ -76,6 +76,8 @@ granflow_record_test(interrupt_writes_checkpoint_and_summary interrupt.sh)
 granflow_record_test(interrupt_np2_all_ranks_stop interrupt.sh NP=2)
 set_tests_properties(cli.interrupt_np2_all_ranks_stop PROPERTIES LABELS "cli;mpi" PROCESSORS 2)
 granflow_record_test(memory_estimate memory.sh)
+# The wall load (issue 11 item 5): wall.csv every step, summary, restart cut, dynamic layout.
+granflow_record_test(wall_load_series wall_load.sh)
 
 # coupled model: decomposition checks
 # a 2D subdomain with the default (closed-box, no free surface) N-DAM cannot take the gate inflow
@@ -208,3 +210,26 @@ endif()
 granflow_cli_test(help_with_extra_argument 1 "--help takes no other argument" --help --check)
 granflow_cli_test(help_with_unknown_option 1 "unknown option '--bogus'" --help --bogus)
 granflow_cli_test(parameters_with_extra_argument 1 "--parameters takes no other argument" --parameters extra)
+
+# Error against run time (issue 12 item 5): the quick matrix of scripts/pareto.py is produced and
+# agrees with its runs' summary.json; the full matrices are long runs (label `long`; they resume
+# from the runs already made in their directory).
+add_test(NAME cli.pareto_quick
+         COMMAND /usr/bin/python3 ${_cli}/pareto_quick.py ${CMAKE_BINARY_DIR} ${CMAKE_CURRENT_BINARY_DIR}/pareto_quick)
+set_tests_properties(cli.pareto_quick PROPERTIES LABELS "cli" TIMEOUT 900)
+foreach(_family setup2 setup1 lab_chute)
+  add_test(NAME long.pareto_${_family}
+           COMMAND /usr/bin/python3 ${PROJECT_SOURCE_DIR}/scripts/pareto.py ${CMAKE_BINARY_DIR}
+                   ${CMAKE_BINARY_DIR}/pareto_${_family} --family ${_family})
+  set_tests_properties(long.pareto_${_family} PROPERTIES LABELS "long" TIMEOUT 86400)
+endforeach()
+
+# Restarts through the app continue bit for bit for the 2D, coupled and dynamic models (the DAM's
+# is cli.restart_reproduces_straight_run).
+add_test(NAME cli.restart_exact_2d_coupled_dynamic
+         COMMAND /usr/bin/python3 ${_cli}/restart_exact.py $<TARGET_FILE:granflow>
+                 ${CMAKE_CURRENT_BINARY_DIR}/restart_exact
+                 ${PROJECT_SOURCE_DIR}/inputs/setup2_ndam.xml
+                 ${PROJECT_SOURCE_DIR}/inputs/setup2_coupled.xml
+                 ${PROJECT_SOURCE_DIR}/inputs/setup2_dynamic.xml)
+set_tests_properties(cli.restart_exact_2d_coupled_dynamic PROPERTIES LABELS "cli" TIMEOUT 600)

@@ -81,11 +81,11 @@ xtimes=$(grep -o 'Time Value="[^"]*"' cut/fields.xdmf | tr '\n' ' ')
 [ "$xtimes" = 'Time Value="0" Time Value="0.05" Time Value="0.1" Time Value="0.15" Time Value="0.2" ' ] ||
   fail "fields.xdmf times after the restart: $xtimes"
 
-# 4. The DAM's XDMF declares the 1-D datasets of its 100 cells as 1-D (h5ls: {100}).
-h5ls cut/fields.h5/step_000000/dam | grep -q '^h  *Dataset {100}' || fail "dam/h is not a 1-D dataset of 100"
-grep -q 'Dimensions="100" NumberType="Float" Precision="8" Format="HDF">fields.h5:/step_000000/dam/h<' cut/fields.xdmf ||
-  fail "fields.xdmf does not declare dam/h as 100"
-grep -q 'Dimensions="1 100"' cut/fields.xdmf && fail "fields.xdmf still declares 1 x 100"
+# 4. The DAM's XDMF declares the shape its cell datasets have: one row of 100 cells, 1 x 100
+#    (h5ls: {1, 100}), the shape ParaView's XDMF reader maps onto the strip's cells.
+h5ls cut/fields.h5/step_000000/dam | grep -q '^h  *Dataset {1, 100}' || fail "dam/h is not a 1 x 100 dataset"
+grep -q 'Dimensions="1 100" NumberType="Float" Precision="8" Format="HDF">fields.h5:/step_000000/dam/h<' cut/fields.xdmf ||
+  fail "fields.xdmf does not declare dam/h as 1 x 100"
 
 # 5. Provenance in summary.json.
 for k in granflow_version git_commit build_type compiler trilinos_version hdf5_version host; do

@@ -107,6 +107,16 @@ struct Chute {
     std::ofstream(file) << xml();
     return scene::build_model(scene::load(file));
   }
+  /// The same under MPI: rank 0 of MPI_COMM_WORLD writes the file, every rank builds the model
+  /// with its 2D parts on `comm` (MPI_COMM_SELF: a serial copy on each rank).
+  std::unique_ptr<core::Stepper> build(MPI_Comm comm) const {
+    const std::string file = "test_coupled_2d_" + name + ".xml";
+    int rank = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    if (rank == 0) std::ofstream(file) << xml();
+    MPI_Barrier(MPI_COMM_WORLD);
+    return scene::build_model(scene::load(file), comm);
+  }
 };
 
 inline void run(core::Stepper& s, double t_end) {

@@ -243,12 +243,15 @@ TEST(Coupled2D, SteadySupercriticalFlowCrossesInterfacesWithoutReflections) {
   EXPECT_LT(j1u, 1e-2);
   EXPECT_LT(j2u, 1e-2);
   // Mass per length of each part (steady: q / u_mean, so it follows u_mean): measured 0 % /
-  // 1.9 % / 0.3 %; asserted 2 % in the 2D parts and 4 % in the 1D part. The pointwise h
+  // 1.9 % / 0.3 % without sub-cycling; asserted 2 % in the gate part and 4 % in the 1D part. The pointwise h
   // differences (L2 about 10 % beyond 0.2 m) are the marker depth's quantisation in a layer
   // under one cell deep, in both runs, and are not asserted.
   EXPECT_LT(mh[0], 2e-2);
   EXPECT_LT(mh[1], 4e-2);
-  EXPECT_LT(mh[2], 2e-2);
+  // (With the DAM sub-cycled inside the 2D step, Decomposition->Sub-cycling, 2.7 % in the
+  // downstream part: the DAM at its own CFL step is less diffusive than at the 2D parts' step,
+  // and the thin layer it passes on is the marker depth's quantum deep; asserted 3.5 % there.)
+  EXPECT_LT(mh[2], 3.5e-2);
 }
 
 namespace {
@@ -274,10 +277,17 @@ std::size_t hole_cells(const core::Stepper& s) {
   return n;
 }
 /// Bottom pressure [Pa] of the wall column (the last 2D subdomain's last column).
+// The pressure at the foot of the wall: the mean over the wall column's cells in the bottom
+// 1 cm (one cell's value swings by 10-20 % from step to step in the resting deposit, in both
+// runs; the 1 cm mean is the figure an engineer reads off a pressure cell).
 double wall_bottom_pressure(const core::Stepper& s) {
   const auto* nd = two_d_parts(s).back();
   const auto& g = nd->grid();
-  return nd->gather_p()[static_cast<std::size_t>((g.nx - 1) * g.nz)] * 1440.0;
+  const auto p = nd->gather_p();
+  const int n = std::max(1, static_cast<int>(std::lround(0.01 / g.dz())));
+  double sum = 0.0;
+  for (int k = 0; k < n; ++k) sum += p[static_cast<std::size_t>((g.nx - 1) * g.nz + k)];
+  return sum / n * 1440.0;
 }
 }  // namespace
 

@@ -4,6 +4,7 @@
 // what is compared is the model state alone (the driver's output schedule is tested with the
 // app in tests/cli).
 #include "granflow/io/fields.hpp"
+#include "granflow/io/output.hpp"
 #include "granflow/ndam/ndam_solver.hpp"
 
 #include <gtest/gtest.h>
@@ -25,7 +26,7 @@ struct Divergence {
 
 // Runs `straight` to t1, checkpoints it into a new model of the same scene, then steps both
 // `steps` times with the straight run's dt and compares h and u_mean after every step.
-Divergence restart_and_compare(const Chute& c, double t1, int steps) {
+Divergence restart_and_compare(const Chute& c, double t1, int steps, bool through_file = false) {
   auto straight = c.build();
   straight->adapt();
   while (straight->time() < t1 - 1e-12) {
@@ -36,6 +37,10 @@ Divergence restart_and_compare(const Chute& c, double t1, int steps) {
   }
   io::Checkpoint ck;
   straight->save(ck);
+  if (through_file) {  // as the app does: checkpoint.h5 written and read back
+    io::write_checkpoint("test_restart_" + c.name + ".h5", ck);
+    ck = io::read_checkpoint("test_restart_" + c.name + ".h5");
+  }
   straight->restart_point();  // as the driver does after writing a checkpoint
   Chute c2 = c;
   c2.name += "_restarted";
@@ -77,6 +82,17 @@ TEST(Restart, NdamChuteContinuesBitForBit) {
   const auto d = restart_and_compare(c, 0.35, 60);
   std::printf("[measured] N-DAM restart at 0.35 s: first differing step %d, max |dh| %.3e m, "
               "max |du| %.3e m/s over 60 steps\n", d.first_step, d.dh, d.du);
+  EXPECT_EQ(d.first_step, -1);
+}
+
+TEST(Restart, NdamChuteContinuesBitForBitThroughTheCheckpointFile) {
+  Chute c;
+  c.name = "rs_ndam_file";
+  c.model = "N-DAM";
+  c.wall = true;
+  const auto d = restart_and_compare(c, 0.6, 60, true);
+  std::printf("[measured] N-DAM restart at 0.6 s through checkpoint.h5: first differing step %d, "
+              "max |dh| %.3e m, max |du| %.3e m/s over 60 steps\n", d.first_step, d.dh, d.du);
   EXPECT_EQ(d.first_step, -1);
 }
 

@@ -14,6 +14,7 @@ struct FsCase {
   std::string rheology = "Drucker-Prager";
   double nu = 0.003, m_y = 100.0, m_c = 100.0, yield = 0.0;
   double depth = 0.05;
+  double init_x0 = 0.0, init_x1 = 1e30;  // the initial layer on [init_x0, init_x1)
   std::array<std::string, 4> walls{"Periodic", "Periodic", "Coulomb", "Free-slip"};
   std::string left = "Periodic", right = "Periodic";  // Channel ends
   double h_in = 0.06, u_in = 0.37;
@@ -38,6 +39,8 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   n.set("Donor-cell weight", 0.5);
   n.set("Free surface", true);
   n.set("Initial depth", c.depth);
+  n.set("Initial x0", c.init_x0);
+  n.set("Initial x1", c.init_x1);
   n.set("Friction regularisation", c.m_c);
   n.set("Pressure coupling", c.coupling);
   if (c.newton_max > 0) n.sublist("Pressure Newton").set("Max Newton iterations", c.newton_max);

@@ -93,6 +93,7 @@ TEST(Defaults, RunControlIsItsStruct) {
   EXPECT_EQ(r.checkpoint, d.checkpoint);
   EXPECT_EQ(r.progress, d.progress);
   EXPECT_EQ(r.restart_from, d.restart_from);
+  EXPECT_EQ(r.impact_window, d.impact_window);
 }
 
 TEST(Defaults, DamConfigIsItsStruct) {
@@ -206,4 +207,11 @@ TEST(Defaults, DecompositionIsItsStruct) {
   EXPECT_EQ(r.margin, d.margin);
   EXPECT_EQ(r.min_length, d.min_length);
   EXPECT_EQ(r.interface_pressure, d.interface_pressure);
+  EXPECT_EQ(r.initial_layout, d.initial_layout);
+  EXPECT_EQ(r.eps_lower, d.eps_lower);
+  EXPECT_EQ(r.hold_time, d.hold_time);
+  EXPECT_EQ(r.check_interval, d.check_interval);
+  EXPECT_EQ(r.rest_speed, d.rest_speed);
+  EXPECT_EQ(r.shock_indicator, d.shock_indicator);
+  EXPECT_EQ(r.subcycling, d.subcycling);
 }

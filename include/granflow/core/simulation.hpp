@@ -1,6 +1,7 @@
 #pragma once
 // The run driver: advances any Stepper to the end time, writes the output contract
-// (profiles.csv, fields.h5/.xdmf, checkpoint.h5, summary.json, run.json), shows a progress line,
+// (profiles.csv, fields.h5/.xdmf, checkpoint.h5, summary.json, run.json, and wall.csv, the load
+// on the end wall at every accepted step), shows a progress line,
 // stops a diverging run with a diagnosis while keeping its last good output and checkpoint, and
 // ends an interrupted run (SIGINT, SIGTERM) after the step in progress with a checkpoint.
 // A run owns its directory (core/run_record.hpp): it refuses one that holds another scene's
@@ -9,6 +10,7 @@
 #include "granflow/core/stepper.hpp"
 
 #include <Teuchos_ParameterList.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include <chrono>
 #include <map>
@@ -31,6 +33,9 @@ struct RunControl {
   bool checkpoint = true;
   bool progress = true;
   std::string restart_from;
+  /// [s] wall.csv / summary.json: the impact peak is the largest load within this time after
+  /// the material first reaches the end wall (later the growing deposit's load can exceed it)
+  double impact_window = 0.05;
   bool overwrite = false;  ///< command line --overwrite: replace another scene's files
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidTimeParameters();
@@ -81,6 +86,8 @@ class Simulation {
  private:
   int advance(const io::Checkpoint& restart);
   void write_output();
+  void sample_wall();
+  nlohmann::json wall_summary() const;
   void write_checkpoint();
   int interrupted(int signal);
   void write_summary(const std::string& status, const std::string& reason, int code);

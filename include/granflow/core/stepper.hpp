@@ -5,6 +5,7 @@
 // check() leaves the last good state (and its output and checkpoint) untouched.
 #include <nlohmann/json_fwd.hpp>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -47,6 +48,21 @@ struct MassBalance {
   double inflow = 0.0;    ///< cumulative mass that entered through boundaries
   double outflow = 0.0;   ///< cumulative mass that left through boundaries
   double defect() const { return current - initial - inflow + outflow; }
+};
+
+/// The load of the material on the rigid end wall at x = L, per unit channel width: what an
+/// engineer takes from the model for a defence structure (wall.csv, summary.json). Forces on the
+/// wall (the reaction on the material has the opposite sign).
+struct WallLoad {
+  double force = 0.0;   ///< pressure force rho int_0^h p dz at the wall [N/m]
+  double normal = 0.0;  ///< force of the full normal stress rho int_0^h (p - 2 nu_eff u_x) dz [N/m]
+  double shear = 0.0;   ///< tangential force rho int_0^h tau_xz dz, + up the wall (+z) [N/m]
+  double p_foot = 0.0;  ///< pressure of the bottom cell of the wall column, rho p [Pa]
+  double depth = 0.0;   ///< material depth of the wall column [m]
+  /// The material has reached the wall as a layer the model resolves (a 2D model: at least one
+  /// cell height in the wall column), not as a few stray markers ahead of the front: the start
+  /// of the impact.
+  bool contact = false;
 };
 
 /// Result of checking a tentative state: where, when and which quantity went wrong.
@@ -95,6 +111,12 @@ class Stepper {
   /// preconditioners) is dropped, and the straight run and a restarted one continue alike.
   virtual void restart_point() {}
   virtual void load(const io::Checkpoint& c) = 0;
+  /// Whether the model ends at a rigid wall at x = L whose load it reports (wall.csv).
+  virtual bool end_wall() const { return false; }
+  /// The load on that wall in the current (accepted) state; empty when the model has no end
+  /// wall, or when the part at the wall cannot resolve it (a 1D subdomain of a coupled model).
+  /// Collective under MPI (every rank gets the value).
+  virtual std::optional<WallLoad> wall_load() const { return std::nullopt; }
   /// Solver statistics for summary.json.
   virtual void report(nlohmann::json& stats) const = 0;
 };

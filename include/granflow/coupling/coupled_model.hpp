@@ -3,7 +3,8 @@
 // subdomains, each run by its own model (DAM "1D" or N-DAM "2D"), advancing with one common dt
 // and exchanging boundary data through interface objects at fixed or moving positions.
 //
-//   dt = min over subdomains of stable_dt();  every subdomain steps from the states at t
+//   dt = min over subdomains of stable_dt() (with sub-cycling: over the 2D ones, the 1D ones
+//   taking several steps of their own inside it);  every subdomain steps from the states at t
 //   (an interface reads its neighbour's state at t: explicit exchange, except the one contract
 //   of interface.hpp), in an order that honours it;  check all;  accept all.
 //
@@ -45,6 +46,8 @@ struct Decomposition {
   double check_interval = 0.005;    ///< time between two evaluations of the layout [s]
   double rest_speed = 0.05;         ///< |u_mean| below this is material at rest: 2D [m/s]
   bool shock_indicator = true;      ///< a shock on the 1D side counts as 2D
+  /// The 1D parts take their own stable steps inside the common step of the 2D parts.
+  bool subcycling = true;
   /// 1D-to-2D interfaces: how the pressure of eq. (26) enters the 2D inflow column
   /// ("Rheology", "Dirichlet" or "None"; see ndam::InflowPressure).
   std::string interface_pressure = "Rheology";
@@ -88,6 +91,11 @@ class CoupledModel final : public core::Stepper {
   void load(const io::Checkpoint& c) override;
   void restart_point() override;
   void report(nlohmann::json& stats) const override;
+  /// The channel ends at a wall (the last part's, or the scene's channel when that part is 1D).
+  bool end_wall() const override;
+  /// The load on the end wall from the last part when it is 2D (the part at the wall, whatever
+  /// its extent after a rebuild by the domain manager); empty while that part is 1D.
+  std::optional<core::WallLoad> wall_load() const override;
 
   const std::vector<Subdomain>& parts() const { return parts_; }
   const Interface& interface(std::size_t i) const { return *interfaces_[i]; }
@@ -105,6 +113,10 @@ class CoupledModel final : public core::Stepper {
   Decomposition layout() const;
   /// The runtime domain manager (Layout = Dynamic): adapt() lets it move the interfaces.
   void set_domain_manager(std::unique_ptr<DomainManager> m);
+  /// Sub-cycling of the 1D parts (Decomposition->Sub-cycling): the common dt is the 2D parts'
+  /// (at most kMaxSubsteps of a 1D part's stable step), each DAM sub-cycles inside it.
+  void set_subcycling(bool on) { subcycling_ = on; }
+  static constexpr int kMaxSubsteps = 64;
   const DomainManager* domain_manager() const { return manager_.get(); }
   std::shared_ptr<const SubdomainFactory> factory() const { return factory_; }
 
@@ -120,6 +132,7 @@ class CoupledModel final : public core::Stepper {
   double initial_mass_ = 0.0;
   double retired_inflow_ = 0.0, retired_outflow_ = 0.0;  // booked by replaced end parts
   std::unique_ptr<DomainManager> manager_;
+  bool subcycling_ = false;
 };
 
 }  // namespace granflow::coupling

@@ -114,6 +114,9 @@ class DamSolver final : public core::Stepper {
 
   // Stepper
   std::string model_name() const override { return "DAM"; }
+  /// A step longer than stable_dt() (the coupled model's common step, set by its 2D parts) is
+  /// taken as several steps of the scheme of at most the stable length each (sub-cycling);
+  /// pending_step() and last_transfer() then hold their sum.
   double time() const override { return t_; }
   long steps() const override { return steps_; }
   double stable_dt() const override;
@@ -190,6 +193,7 @@ class DamSolver final : public core::Stepper {
   }
   void fix_positivity(std::vector<double>& h, std::vector<double>& hu, bool on_b);
   void step_semidiscrete(double dt);
+  void step_once(double dt);  // one step of the scheme from the current state
   /// One forward-Euler stage w + dt L(w) of the semi-discrete scheme from the primary-grid
   /// state (h, hu) at time t, with the bounded friction; `in`/`out`: mass through the ends.
   void euler_stage(const std::vector<double>& h0, const std::vector<double>& hu0, double t,
@@ -209,6 +213,7 @@ class DamSolver final : public core::Stepper {
   std::vector<double> h_, hu_;
   // tentative state of step()
   double t_new_ = 0.0;
+  bool staggered_new_ = false;  // the grid of the tentative state
   std::vector<double> h_new_, hu_new_;
   double in_new_ = 0.0, out_new_ = 0.0;
   long fixes_new_ = 0;

@@ -1,6 +1,8 @@
 #pragma once
 // The output contract (DESIGN.md section 6) of a run directory:
 //   profiles.csv   t, x, h, u_mean, eps, model  (depth-averaged in every model)
+//   wall.csv       t, force, normal_force, shear, p_foot, depth, contact: the load on the end
+//                  wall at every accepted step (models that end at a wall, core::WallLoad)
 //   fields.h5      one group per snapshot, cell fields on rectilinear meshes
 //   fields.xdmf    temporal collection over fields.h5 that ParaView opens; rewritten after each
 //                  snapshot so that a run that stops early leaves a readable file
@@ -40,6 +42,40 @@ class ProfileWriter {
   std::ofstream out_;
 };
 
+/// wall.csv: the load on the end wall (core::WallLoad) at the initial state and after every
+/// accepted step, and the extremes of the series for summary.json.
+class WallWriter {
+ public:
+  /// A quantity's largest value and when, and its last value.
+  struct Extreme {
+    double max = 0.0, t_max = 0.0, min = 0.0, t_min = 0.0, last = 0.0;
+    double impact = 0.0, t_impact = -1.0;  ///< largest value in the impact window
+    void add(double t, double v, bool first, bool impact_window);
+  };
+  struct Series {
+    long samples = 0;
+    double t_first = 0.0, t_last = 0.0;
+    double t_contact = -1.0;  ///< first sample with WallLoad::contact (-1: none yet)
+    Extreme force, normal, shear, p_foot, depth;
+  };
+  WallWriter() = default;
+  /// Opens `dir`/wall.csv: a new file, or (`keep_until` >= 0, a restart) the existing one cut
+  /// after its last row with t <= keep_until (+ round-off); the series statistics then start
+  /// from the rows kept, so that summary.json of a restarted run covers the whole run.
+  /// The impact window: [t_contact, t_contact + impact_window].
+  void open(const std::string& dir, double keep_until = -1.0, double impact_window = 0.05);
+  /// Appends a row (buffered: flush() at output times, checkpoints and the end of the run).
+  void write(double t, const core::WallLoad& w);
+  void flush();
+  const Series& series() const { return series_; }
+
+ private:
+  void add(double t, const core::WallLoad& w);
+  std::ofstream out_;
+  Series series_;
+  double impact_window_ = 0.05;
+};
+
 class Hdf5FieldOutput {
  public:
   Hdf5FieldOutput() = default;
@@ -56,6 +92,22 @@ class Hdf5FieldOutput {
   std::vector<std::string> names_;                       // group of each snapshot
   std::vector<std::vector<FieldWriter::Mesh>> layouts_;  // meshes of each snapshot
   std::size_t next_index_ = 0;                           // step_NNNNNN of the next snapshot
+};
+
+/// Reads the snapshots of a run's fields.h5 (granflow-study budget): their times, and one
+/// snapshot's meshes with all their cell fields. Throws std::runtime_error naming the file.
+class FieldReader {
+ public:
+  explicit FieldReader(const std::string& file);
+  std::size_t size() const { return times_.size(); }
+  /// Snapshots in time order.
+  double time(std::size_t i) const { return times_.at(i); }
+  std::vector<FieldWriter::Mesh> read(std::size_t i) const;
+
+ private:
+  std::string file_;
+  std::vector<double> times_;
+  std::vector<std::string> groups_;
 };
 
 /// Writes `file` atomically (file.tmp, then rename) with a checksum over every entry.

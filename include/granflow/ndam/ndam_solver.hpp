@@ -93,6 +93,16 @@ class NdamSolver final : public core::Stepper {
   void load(const io::Checkpoint& c) override;
   void restart_point() override;
   void report(nlohmann::json& stats) const override;
+  /// A free-surface chute that ends at a rigid wall (not periodic, no open outflow).
+  bool end_wall() const override;
+  /// The load on that wall from the wall column (cell nx - 1): the pressure extrapolated from
+  /// the cell centres to the wall by the downslope gravity over dx/2 (as the Coulomb law of the
+  /// end wall takes it, boundaries.cpp), integrated over the column's material cells; the
+  /// normal viscous stress 2 nu_eff u*_x of those cells (u*: the velocity of the last step's
+  /// viscous solve); the shear stress the wall's ghost velocities apply (the Coulomb law (13)
+  /// on a Coulomb wall) at its w faces; the bottom cell's pressure. See docs/numerics.md,
+  /// "Wall load". Collective.
+  std::optional<core::WallLoad> wall_load() const override;
 
   // Inspection (tests, benchmark, the coupling).
   const Grid& grid() const { return cfg_.grid; }
@@ -172,7 +182,7 @@ class NdamSolver final : public core::Stepper {
   Ref u_ref(int i, int k) const;
   Ref w_ref(int i, int k) const;
   Ref ref(Comp c, int i, int k) const;
-  void fill_velocity_ghosts(Field& u, Field& w) const;
+  void fill_velocity_ghosts(Field& u, Field& w, bool surface_rules = true) const;
   void boundary_faces(Field& u, Field& w) const;
   void fill_scalar_ghosts(Field& s) const;
   void update_friction(const Field& p_yield);
@@ -226,7 +236,7 @@ class NdamSolver final : public core::Stepper {
   Field u_, w_, p_, nu_;
   Field nu_rot_;                 // nu_eff(u^n, p^n) of the rotational pressure update
   Field u_new_, w_new_, p_new_;
-  Field u_star_, w_star_;        // u* of the last step (rotational pressure update)
+  Field u_star_, w_star_;        // u* of the last step (rotational pressure update, wall load)
   Field normD_;                  // ||D|| of the cells (free surface: surface stress)
   Field p_dir_;                  // Dirichlet phi of non-unknown cells in solve_pressure
   double t_ = 0.0, t_new_ = 0.0;

@@ -25,6 +25,9 @@ struct NdamState {
   std::vector<double> bed_factor;   ///< Coulomb ghost factor of u(gi, -1), gi = -G .. nx + G - 1
   std::vector<double> wall_factor;  ///< Coulomb ghost factor of w(nx, k), k = 0 .. nz - 1
   double momentum_dt = -1.0;        ///< dt of the assembled momentum matrix (Newtonian reuse)
+  /// u and w already hold the free-surface conditions of the markers' flags (an exported state):
+  /// loading does not apply them again (they are not idempotent).
+  bool surface_applied = false;
 };
 
 }  // namespace granflow::ndam

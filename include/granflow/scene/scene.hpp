@@ -6,6 +6,8 @@
 
 #include <Teuchos_ParameterList.hpp>
 
+#include <mpi.h>
+
 #include <memory>
 #include <string>
 #include <vector>
@@ -31,7 +33,9 @@ Teuchos::RCP<const Teuchos::ParameterList> valid_parameters(const std::string& m
 Scene load(const std::string& file);
 
 /// Build the model the scene asks for (only the components it uses) with its initial state.
-std::unique_ptr<core::Stepper> build_model(const Scene& s);
+/// The 2D model runs on `comm` (the run's communicator; tests build serial copies on
+/// MPI_COMM_SELF to compare with a distributed run).
+std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm = MPI_COMM_WORLD);
 
 /// Markdown reference of every model's parameters (docs/parameters.md).
 std::string parameter_reference();

@@ -1,0 +1,248 @@
+#!/usr/bin/env python3
+"""Error against run time: a matrix of methods and resolutions on a scene family.
+
+  pareto.py BUILD OUTDIR [--family setup1|setup2|lab_chute] [--cells MM ...] [--end T]
+            [--height H] [--times T ...] [--quick] [--rerun]
+
+Runs (or reuses: a run whose scene and summary.json say it completed is not run again, so the
+matrix can be built over several sittings) for every resolution in --cells:
+  full            full 2D (N-DAM)
+  static          the paper's static layout
+  apriori         the a priori layout of a DAM run (paper section 4.1)
+  dynamic         the domain manager with the default thresholds (0.1 / 0.05)
+  dynamic_tight   the domain manager with thresholds 0.05 / 0.025 (more 2D)
+  dynamic_loose   the domain manager with thresholds 0.2 / 0.1 (less 2D)
+  dam             the DAM alone
+The reference is the finest full 2D run (for the lab chute the 2.5 mm run, with a Richardson
+estimate of its own error from 5 and 2.5 mm, first order assumed: e_ref ~ |f_5 - f_2.5|).
+Errors are the relative L2 and max of h and u_mean over the flowing part of the reference
+(h > 1 mm, |u_mean| > 1 mm/s) at the given times, the reference sampled at each run's columns;
+the deposit depth at the wall; the run's wall time and steps from its summary.json.
+Writes OUTDIR/pareto.csv, OUTDIR/pareto.md and OUTDIR/pareto.png (log-log error of u_mean
+against wall time, one marker per method and resolution).
+
+--quick: Setup II at 10 and 5 mm to 0.6 s with full, static, dynamic and dam (about a minute;
+what the test suite runs to check that the report is made and agrees with the runs).
+"""
+import argparse
+import csv
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import compare_layouts as cl  # noqa: E402
+
+ROOT = cl.ROOT
+FAMILIES = dict(cl.FAMILIES)
+FAMILIES["setup1"] = {"full": "setup1_ndam.xml", "static": "setup1_coupled.xml",
+                      "apriori": "setup1_coupled.xml", "dynamic": "setup1_coupled.xml",
+                      "length": 1.5}
+DAM_SCENES = {"setup1": "setup1_dam.xml", "setup2": "setup2_dam.xml", "lab_chute": None}
+
+METHODS = ["full", "static", "apriori", "dynamic", "dynamic_tight", "dynamic_loose", "dam"]
+THRESHOLDS = {"dynamic": None, "dynamic_tight": (0.05, 0.025), "dynamic_loose": (0.2, 0.1)}
+
+
+def dynamic_block(upper=None, lower=None, interfaces=None):
+    lines = ['<ParameterList name="Decomposition">',
+             '    <Parameter name="Layout" type="string" value="Dynamic"/>',
+             '    <Parameter name="Initial layout" type="string" value="Static"/>']
+    if interfaces:
+        lines.append('    <Parameter name="Models" type="Array(string)" value="{2D, 1D, 2D}"/>')
+        lines.append('    <Parameter name="Interfaces" type="Array(double)" value="{%s}"/>' % interfaces)
+    if upper is not None:
+        lines.append('    <Parameter name="Shallowness threshold" type="double" value="%g"/>' % upper)
+        lines.append('    <Parameter name="Lower threshold" type="double" value="%g"/>' % lower)
+    return "\n".join(lines) + "\n  </ParameterList>"
+
+
+def scene_text(family, method, cell, args, directory):
+    spec = FAMILIES[family]
+    L = spec["length"]
+    if method == "dam":
+        text = open(os.path.join(ROOT, "inputs", DAM_SCENES[family])).read()
+        text = cl.set_param(text, "Cells", "int", int(round(L / (cell / 1000.0))))
+    else:
+        base = {"full": "full", "static": "static", "apriori": "apriori"}.get(method, "dynamic")
+        text = open(os.path.join(ROOT, "inputs", spec[base])).read()
+        if method == "apriori":
+            text = re.sub(r'<ParameterList name="Decomposition">.*?</ParameterList>',
+                          '<ParameterList name="Decomposition">\n    <Parameter name="Layout" '
+                          'type="string" value="A priori"/>\n  </ParameterList>', text, flags=re.S)
+        if method in THRESHOLDS:
+            th = THRESHOLDS[method] or (None, None)
+            ifs = re.search(r'name="Interfaces" type="Array\(double\)" value="\{([^}]*)\}"', text)
+            text = re.sub(r'<ParameterList name="Decomposition">.*?</ParameterList>',
+                          dynamic_block(th[0], th[1], ifs.group(1) if ifs else None), text,
+                          flags=re.S)
+        dx = cell / 1000.0
+        nx = int(round(L / dx))
+        text = cl.set_param(text, "Cells x", "int", nx)
+        if 'name="DAM"' in text:
+            text = cl.set_param(text, "Cells", "int", nx)
+        h = args.height or float(re.search(r'name="Height" type="double" value="([^"]*)"',
+                                           text).group(1))
+        text = cl.set_param(text, "Height", "double", h)
+        text = cl.set_param(text, "Cells z", "int", int(round(h / dx)))
+    if args.end:
+        text = cl.set_param(text, "End time", "double", args.end)
+    text = cl.set_param(text, "Interval", "double", args.interval)
+    text = cl.set_param(text, "Directory", "string", directory)
+    return text
+
+
+def run(build, family, method, cell, args):
+    name = f"{method}_{cell:g}mm"
+    d = os.path.abspath(os.path.join(args.outdir, name))
+    text = scene_text(family, method, cell, args, d)
+    scene = os.path.join(args.outdir, name + ".xml")
+    summary = os.path.join(d, "summary.json")
+    if (not args.rerun and os.path.exists(summary) and os.path.exists(scene)
+            and open(scene).read() == text
+            and json.load(open(summary)).get("status") == "completed"):
+        print(f"{name:22s} reused", flush=True)
+        return d
+    os.makedirs(args.outdir, exist_ok=True)
+    open(scene, "w").write(text)
+    t0 = time.time()
+    p = subprocess.run([os.path.join(build, "apps", "granflow"), "--overwrite", scene],
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    print(f"{name:22s} exit {p.returncode} in {time.time() - t0:.1f} s", flush=True)
+    if p.returncode != 0:
+        print(p.stdout[-1500:])
+        return None
+    return d
+
+
+def sample(ref, test):
+    """The reference's (h, u) at the test's columns (the reference cell containing each x)."""
+    xs = [p[0] for p in ref]
+    dx = xs[1] - xs[0] if len(xs) > 1 else 1.0
+    out = []
+    for x, *_ in test:
+        i = min(len(ref) - 1, max(0, int(round((x - xs[0]) / dx))))
+        out.append(ref[i])
+    return out
+
+
+def errors(ref, test):
+    r = sample(ref, test)
+    nh = dh = nu = du = mh = mu = 0.0
+    for (_, h, u, _), (_, hr, ur, _) in zip(test, r):
+        if hr <= 1e-3 or abs(ur) <= 1e-3:
+            continue
+        nh += (h - hr) ** 2
+        dh += hr * hr
+        nu += (u - ur) ** 2
+        du += ur * ur
+        mh = max(mh, abs(h - hr) / hr)
+        mu = max(mu, abs(u - ur) / abs(ur))
+    f = lambda n, d: math.sqrt(n / d) if d > 0 else float("nan")
+    return f(nh, dh), mh, f(nu, du), mu
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("build")
+    ap.add_argument("outdir")
+    ap.add_argument("--family", default="setup2", choices=sorted(FAMILIES))
+    ap.add_argument("--cells", type=float, nargs="*", help="[mm] resolutions (default 5 2.5 1.3)")
+    ap.add_argument("--methods", nargs="*", choices=METHODS, help="default: all")
+    ap.add_argument("--end", type=float)
+    ap.add_argument("--height", type=float)
+    ap.add_argument("--interval", type=float, default=0.05)
+    ap.add_argument("--times", type=float, nargs="*")
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--rerun", action="store_true")
+    args = ap.parse_args()
+    if args.quick:
+        args.family, args.cells, args.end = "setup2", [10.0, 5.0], args.end or 0.6
+        args.methods = args.methods or ["full", "static", "dynamic", "dam"]
+        args.times = args.times or [0.4, 0.6]
+    cells = args.cells or ([5.0, 2.5] if args.family == "lab_chute" else [5.0, 2.5, 1.3])
+    methods = args.methods or METHODS
+    if DAM_SCENES[args.family] is None and "dam" in methods:
+        methods = [m for m in methods if m != "dam"]
+    build = os.path.abspath(args.build)
+    runs = {}
+    for c in sorted(cells, reverse=True):
+        for m in methods:
+            d = run(build, args.family, m, c, args)
+            if d:
+                runs[(m, c)] = d
+    finest = min(c for (m, c) in runs if m == "full")
+    ref = cl.profiles(runs[("full", finest)])
+    times = sorted(ref)
+    table_times = [min(times, key=lambda s: abs(s - t)) for t in (args.times or [times[-1]])]
+    # the reference's own error (first order: the difference to the next coarser full run)
+    ref_err = {}
+    coarser = sorted(c for (m, c) in runs if m == "full" and c > finest)
+    if coarser:
+        nxt = cl.profiles(runs[("full", coarser[0])])
+        for t in table_times:
+            if t in nxt:
+                ref_err[t] = errors(ref[t], nxt[t])
+    rows = []
+    for (m, c), d in sorted(runs.items(), key=lambda kv: (kv[0][1], METHODS.index(kv[0][0]))):
+        p = cl.profiles(d)
+        s = json.load(open(os.path.join(d, "summary.json")))
+        for t in table_times:
+            if t not in p:
+                continue
+            eh, mh, eu, mu = errors(ref[t], p[t]) if (m, c) != ("full", finest) else (0, 0, 0, 0)
+            rows.append({"method": m, "cell_mm": c, "t": t, "h_L2": eh, "h_max": mh,
+                         "u_L2": eu, "u_max": mu, "wall_depth": p[t][-1][1],
+                         "wall_seconds": s["wall_time"]["total"], "steps": s["steps"],
+                         "summary": os.path.join(d, "summary.json")})
+    os.makedirs(args.outdir, exist_ok=True)
+    with open(os.path.join(args.outdir, "pareto.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    md = [f"# Error against run time: {args.family} (reference: full 2D at {finest:g} mm)", ""]
+    for t, e in ref_err.items():
+        md.append(f"Reference error estimate at t = {t:g} s (first order, |full {finest:g} mm - "
+                  f"full {coarser[0]:g} mm|): h L2 {e[0]:.3f}, u_mean L2 {e[2]:.3f}.")
+    md += ["", "| method | cell [mm] | t [s] | h L2 | h max | u_mean L2 | u_mean max | wall depth [m] | wall time [s] | steps |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        md.append(f"| {r['method']} | {r['cell_mm']:g} | {r['t']:g} | {r['h_L2']:.3f} | "
+                  f"{r['h_max']:.3f} | {r['u_L2']:.3f} | {r['u_max']:.3f} | "
+                  f"{r['wall_depth']:.4f} | {r['wall_seconds']:.1f} | {r['steps']} |")
+    open(os.path.join(args.outdir, "pareto.md"), "w").write("\n".join(md) + "\n")
+    print("\n".join(md))
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("pareto: no matplotlib, no pareto.png")
+        return
+    t_last = table_times[-1]
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    marks = {"full": "s", "static": "o", "apriori": "^", "dynamic": "D", "dynamic_tight": "v",
+             "dynamic_loose": "<", "dam": "x"}
+    for m in methods:
+        pts = [(r["wall_seconds"], r["u_L2"], r["cell_mm"]) for r in rows
+               if r["method"] == m and r["t"] == t_last and r["u_L2"] > 0]
+        if not pts:
+            continue
+        ax.loglog([p[0] for p in pts], [p[1] for p in pts], marks[m] + "-", label=m)
+        for x, y, c in pts:
+            ax.annotate(f"{c:g}", (x, y), fontsize=7, xytext=(3, 3), textcoords="offset points")
+    ax.set_xlabel("wall time [s]")
+    ax.set_ylabel(f"u_mean L2 error against full 2D {finest:g} mm at t = {t_last:g} s")
+    ax.set_title(f"{args.family}: error against run time (labels: cell size in mm)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.outdir, "pareto.png"), dpi=120)
+    print("wrote", os.path.join(args.outdir, "pareto.png"))
+
+
+if __name__ == "__main__":
+    main()

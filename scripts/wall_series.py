@@ -1,0 +1,56 @@
+#!/usr/bin/env python3
+"""The wall load of granflow runs (wall.csv, summary.json 'wall_load'): first contact, the
+impact peaks of the single-step series, the time means of the load over windows after the
+contact (which do not depend on which step a peak falls on), the impulse over the impact, the
+final load, and the load against the hydrostatic one of the wall column, rho g cos(zeta) h^2/2.
+Standard library only.
+
+Usage: scripts/wall_series.py RUN_DIR [RUN_DIR ...] [--windows A:B,...] (milliseconds after
+the first contact; default 0:5,0:10,0:20,20:50,100:150,300:400)"""
+import csv
+import json
+import math
+import sys
+
+dirs = [a for a in sys.argv[1:] if not a.startswith("--")]
+windows = [(0, 5), (0, 10), (0, 20), (20, 50), (100, 150), (300, 400)]
+for a in sys.argv[1:]:
+    if a.startswith("--windows="):
+        windows = [tuple(float(v) for v in w.split(":")) for w in a.split("=", 1)[1].split(",")]
+if not dirs:
+    sys.exit(__doc__)
+
+for d in dirs:
+    s = json.load(open(d + "/summary.json"))
+    w = s["wall_load"]
+    par = s["parameters"]
+    rho, g = par["Material"]["Density"], par["Material"]["Gravity"]
+    zeta = math.radians(par["Channel"]["Slope angle"])
+    rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(open(d + "/wall.csv"))]
+    tc = w["first_contact_time"]
+    print(f"{d}: {w['samples']} samples, first contact at {tc:.4f} s "
+          f"(impact window {w['impact_window']} s)")
+    for k in ("force", "normal_force", "p_foot"):
+        q = w[k]
+        print(f"  {k:12s} impact peak {q['impact_peak']:9.1f} at +{1e3 * (q['impact_peak_time'] - tc):5.1f} ms,"
+              f" peak {q['peak']:9.1f} at {q['peak_time']:.3f} s, final {q['final']:9.1f}")
+
+    def mean(col, a, b):  # time mean over [tc + a, tc + b] (each row holds over its step)
+        num = den = 0.0
+        for r0, r1 in zip(rows, rows[1:]):
+            lo, hi = max(r0["t"], tc + a), min(r1["t"], tc + b)
+            if hi > lo:
+                num += r1[col] * (hi - lo)
+                den += hi - lo
+        return num / den if den else float("nan")
+
+    for a, b in windows:
+        print(f"  mean over +[{a:g}, {b:g}] ms: force {mean('force', a / 1e3, b / 1e3):7.1f}  "
+              f"normal {mean('normal_force', a / 1e3, b / 1e3):7.1f}  shear "
+              f"{mean('shear', a / 1e3, b / 1e3):6.1f} N/m  p_foot {mean('p_foot', a / 1e3, b / 1e3):7.0f} Pa")
+    imp = mean("normal_force", 0, 0.05) * 0.05
+    print(f"  impulse of the normal force over +[0, 50] ms: {imp:.3f} N s/m")
+    last = rows[-1]
+    hyd = 0.5 * rho * g * math.cos(zeta) * last["depth"] ** 2
+    print(f"  final: depth {last['depth']:.4f} m, force {last['force']:.1f} N/m = "
+          f"{last['force'] / hyd:.3f} x hydrostatic {hyd:.1f} N/m, normal {last['normal_force']:.1f}")
