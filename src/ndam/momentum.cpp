@@ -227,6 +227,8 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   if (mom_stats_.stiff) {
     ++stats_.momentum_stiff_solves;
     stats_.momentum_stiff_iterations += mom_stats_.iterations;
+    stats_.momentum_stiff_max_iterations =
+        std::max(stats_.momentum_stiff_max_iterations, mom_stats_.iterations);
   }
   stats_.worst_momentum_residual = std::max(stats_.worst_momentum_residual, mom_stats_.residual);
   if (!mom_stats_.converged) ++stats_.unconverged_solves;

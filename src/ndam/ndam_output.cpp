@@ -409,6 +409,7 @@ void NdamSolver::report(nlohmann::json& s) const {
       {"momentum_stiff_solves", stats_.momentum_stiff_solves},
       {"momentum_stiff_krylov_iterations_per_solve",
        avg(stats_.momentum_stiff_iterations, stats_.momentum_stiff_solves)},
+      {"momentum_stiff_max_krylov_iterations", stats_.momentum_stiff_max_iterations},
       {"unconverged_solves", stats_.unconverged_solves},
       {"pressure_preconditioner_setups",
        pressure_->preconditioner_setups() + stats_.retired_pressure_setups},
