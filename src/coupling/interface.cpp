@@ -66,16 +66,21 @@ void Interface::connect() {
     const double x = this->x();
     down_->ndam->set_inflow([self, x](double) { return self->up_->sample(x); },
                             ndam::InflowShape::CopyInterior, opt_.pressure, opt_.K,
-                            [self](double t, double dt) { return self->pending_mass(t, dt); });
+                            [self](double t, double dt) {
+                              std::optional<ndam::NdamSolver::InflowStepMass> s;
+                              if (const auto m = self->pending_mass(t, dt))
+                                s = ndam::NdamSolver::InflowStepMass{(*m)[0], (*m)[1]};
+                              return s;
+                            });
   }
 }
 
-std::optional<double> Interface::pending_mass(double t, double dt) const {
+std::optional<std::array<double, 2>> Interface::pending_mass(double t, double dt) const {
   if (!up_->dam) return std::nullopt;
   const auto p = up_->dam->pending_step();
   if (!p || std::abs(p->t0 - t) > 1e-12 * (1.0 + t) || std::abs(p->dt - dt) > 1e-12 * dt)
     return std::nullopt;
-  return p->out;
+  return std::array<double, 2>{p->out, p->out - p->out_flux};
 }
 
 void Interface::book() {

@@ -362,7 +362,7 @@ void DamSolver::step(double dt) {
   const auto h0 = h_, hu0 = hu_;
   const double t0 = t_;
   const bool s0 = staggered_;
-  double in = 0.0, out = 0.0, remaining = dt;
+  double in = 0.0, out = 0.0, out_flux = 0.0, remaining = dt;
   long fixes = 0;
   while (remaining > 0.0) {
     const double stable = stable_dt();
@@ -371,6 +371,7 @@ void DamSolver::step(double dt) {
     step_once(h);
     in += in_new_;
     out += out_new_;
+    out_flux += out_flux_new_;
     fixes += fixes_new_;
     h_.swap(h_new_);
     hu_.swap(hu_new_);
@@ -390,6 +391,7 @@ void DamSolver::step(double dt) {
   t_new_ = t0 + dt;
   in_new_ = in;
   out_new_ = out;
+  out_flux_new_ = out_flux;
   fixes_new_ = fixes;
 }
 
@@ -590,19 +592,24 @@ void DamSolver::step_once(double dt) {
   // interior, so the slope and depth terms below vanish or cancel and what is booked is a flux
   // times dt; at an interface they are the overlap's half-cell terms, which the neighbour books
   // with the opposite sign to within the mismatch the coupled model reports.
-  double in_left, in_right;
+  // The dx terms are the averaging onto the other grid (independent of dt); the dt terms are
+  // the flux through the end (out_flux_new_, PendingStep::out_flux).
+  double in_left, in_right, out_flux;
   if (!on_b) {
     const auto a = at(-1), b = at(0), c = at(n - 1), d = at(n);
     in_left = dx_ * (0.25 * (h[a] - h[b]) + (sh[a] + sh[b]) / 16.0) + 0.5 * dt * (g0[a] + g0[b]);
-    in_right = dx_ * (0.25 * (h[d] - h[c]) - (sh[c] + sh[d]) / 16.0) - 0.5 * dt * (g0[c] + g0[d]);
+    out_flux = 0.5 * dt * (g0[c] + g0[d]);
+    in_right = dx_ * (0.25 * (h[d] - h[c]) - (sh[c] + sh[d]) / 16.0) - out_flux;
   } else {
     in_left = dx_ * sh[at(0)] / 8.0 + dt * g0[at(0)];
-    in_right = -dx_ * sh[at(n - 1)] / 8.0 - dt * g0[at(n - 1)];
+    out_flux = dt * g0[at(n - 1)];
+    in_right = -dx_ * sh[at(n - 1)] / 8.0 - out_flux;
   }
   if (half_left) in_left = dt * F_left[0];
-  if (half_right) in_right = -dt * F_right[0];
+  if (half_right) in_right = -(out_flux = dt * F_right[0]);
   in_new_ = in_left;
   out_new_ = -in_right;
+  out_flux_new_ = out_flux;
 
   // --- 8. positivity and dry cells ------------------------------------------------------------
   fixes_new_ = 0;
@@ -737,6 +744,7 @@ void DamSolver::step_semidiscrete(double dt) {
   }
   in_new_ = 0.5 * (in1 + in2);
   out_new_ = 0.5 * (out1 + out2);
+  out_flux_new_ = out_new_;  // a face flux times dt: no averaging term
   t_new_ = t_ + dt;
   dt_min_ = steps_ == 0 ? dt : std::min(dt_min_, dt);
   dt_max_ = std::max(dt_max_, dt);

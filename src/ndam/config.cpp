@@ -30,9 +30,31 @@ const char* to_string(PressureCoupling c) {
 }
 const char* to_string(WallKind k) { return kWallKinds[static_cast<std::size_t>(k)].c_str(); }
 
+// The momentum preconditioner switches on the stiffness S = nu_eff,max dt / h^2 (momentum.cpp):
+// symmetric Gauss-Seidel while S is small (flows: 5-25 GMRES iterations, no setup), smoothed
+// aggregation with u and w as two equations per node from S = kStiffThreshold on (deposits at
+// rest, where S reaches 1e4: the column collapse needs 144 iterations per solve with fresh
+// Gauss-Seidel, up to 385, and 19 with MueLu, up to 31). Measurements: docs/validation.md,
+// "Momentum solve on deposits".
 Teuchos::ParameterList NdamConfig::default_momentum_solver() {
-  return *solvers::LinearSystem::getValidParameters("N-DAM->Momentum solver", "GMRES",
-                                                    "Ifpack2 RELAXATION", 1e-10);
+  constexpr double kStiffThreshold = 300.0;
+  auto pl = *solvers::LinearSystem::getValidParameters("N-DAM->Momentum solver", "GMRES",
+                                                       "Ifpack2 RELAXATION", 1e-10);
+  // No lagged preconditioner: the matrix is reassembled in a step only because nu_eff or dt
+  // changed, and nu_eff changes by orders of magnitude where material starts or stops. A
+  // preconditioner of the previous step's matrix (same pattern) then needed 775-1000 GMRES
+  // iterations where a fresh one needs 13-18 (the lab chute's wall deposit at t = 2.3 s, both
+  // with Gauss-Seidel and with MueLu), and the runs stopped there.
+  pl.set("Preconditioner reuse", 0,
+         "assemblies of the same sparsity pattern for which a preconditioner may be reused "
+         "(lagged) before it is rebuilt. 0 (the default here): rebuild after every assembly; "
+         "the momentum matrix is reassembled only when nu_eff or dt changed, and a lagged "
+         "preconditioner failed where nu_eff jumps (material starting or stopping)");
+  solvers::LinearSystem::add_stiff_switch(
+      pl, "MueLu", kStiffThreshold,
+      "S = nu_eff,max dt / min(dx, dz)^2, the largest viscous diffusion number of the step "
+      "(nu_eff,max over the box, all ranks)");
+  return pl;
 }
 
 Teuchos::ParameterList NdamConfig::default_pressure_solver() {
@@ -141,11 +163,14 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
             "open outflow face follow neighbouring unknowns), and CG fails there (measured: "
             "coupled Setup II with Bingham material stalled at t = 0.28 s); CG suits the "
             "symmetric positive definite closed and periodic boxes. Default preconditioner: "
-            "one symmetric Gauss-Seidel sweep (Ifpack2 RELAXATION): the 1/dt diagonal keeps "
+            "one symmetric Gauss-Seidel sweep (Ifpack2 RELAXATION) while the stiffness "
+            "nu_eff,max dt / h^2 is below 'Stiff threshold': there the 1/dt diagonal keeps "
             "the system well conditioned, and with the free surface the matrix changes every "
             "step, so an AMG setup per step cost more than the iterations it saves (Setup II: "
-            "4-8 iterations with MueLu, 8-28 with SGS, about 6x less time). With MueLu, u and "
-            "w are two equations per node ('number of equations' = 2)");
+            "4-8 iterations with MueLu, 8-28 with SGS, about 6x less time). From the threshold "
+            "on (deposits at rest, nu_eff dt / h^2 up to 1e4) MueLu ('Stiff preconditioner'; "
+            "column collapse: 19 GMRES iterations per solve against 144 with SGS). With MueLu, "
+            "u and w are two equations per node ('number of equations' = 2)");
     pl->set("Pressure solver", d.pressure_solver,
             "Belos solver of the pressure Poisson equation (symmetric positive definite: CG)");
     add_enum(*pl, "Pressure coupling", to_string(d.pressure_coupling),

@@ -14,6 +14,7 @@
 // the Refs of boundaries.cpp and free_surface.cpp.
 #include "stencil.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -255,12 +256,25 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
           rhs[lr] = b;
         }
     if (rebuild) {
+      // The stiffness that selects the momentum preconditioner ('Stiff threshold'):
+      // S = nu_eff,max dt / h^2 is the ratio of the viscous diagonal of V to the 1/dt of the
+      // mass term (up to a factor 4-6); one-level Gauss-Seidel needs about sqrt(S) iterations.
+      // From the state at t^n and dt only (the same value on every rank and after a restart).
+      const double h = std::min(dx, dz);
+      momentum_->set_stiffness(max_nu_eff() * dt / (h * h));
       momentum_->end();
       momentum_dt_ = dt;
     }
     mom_stats_ = momentum_->solve(rhs, x);
     ++stats_.momentum_solves;
     stats_.momentum_iterations += mom_stats_.iterations;
+    stats_.momentum_max_iterations = std::max(stats_.momentum_max_iterations, mom_stats_.iterations);
+    if (mom_stats_.stiff) {
+      ++stats_.momentum_stiff_solves;
+      stats_.momentum_stiff_iterations += mom_stats_.iterations;
+      stats_.momentum_stiff_max_iterations =
+          std::max(stats_.momentum_stiff_max_iterations, mom_stats_.iterations);
+    }
     stats_.worst_momentum_residual = std::max(stats_.worst_momentum_residual, mom_stats_.residual);
     if (!mom_stats_.converged) ++stats_.unconverged_solves;
     for (int i = 0; i < nxl; ++i)

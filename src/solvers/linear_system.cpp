@@ -13,6 +13,11 @@
 //   (shared/TRILINOS-NOTES.md), so `coarse: type` defaults to RELAXATION and check() rejects a
 //   direct coarse solver at np > 1.
 // - Ifpack2 (RILUK, RELAXATION, ...) as the alternative one-level preconditioner.
+// - A preconditioner switch (add_stiff_switch, set_stiffness): a system whose conditioning
+//   changes by orders of magnitude during a run (the N-DAM momentum system between a flow and
+//   a deposit at rest) uses a cheap one-level preconditioner while that suffices and AMG where
+//   the one-level iteration count would grow with the stiffness. The model supplies the
+//   stiffness from its state, so the choice is the same in a straight and a restarted run.
 #include "granflow/solvers/linear_system.hpp"
 
 #include "granflow/params/parameters.hpp"
@@ -57,6 +62,8 @@ Teuchos::ParameterList default_muelu() {
   ml.set("smoother: params", sp);
   return ml;
 }
+const std::vector<std::string> kPreconditioners = {"MueLu", "Ifpack2 RILUK", "Ifpack2 RELAXATION",
+                                                   "None"};
 Teuchos::ParameterList merged_muelu(const Teuchos::ParameterList& p) {
   auto ml = default_muelu();
   if (p.isSublist("MueLu")) ml.setParameters(p.sublist("MueLu"));
@@ -111,7 +118,12 @@ struct LinearSystem::Impl {
   RCP<const Map> rmap;              // map of the kept rows
   GO rfirst = 0;                    // first global index of this rank's kept rows in rmap
   GO rglobal = 0;                   // kept rows on all ranks
-  int block = 1;                    // MueLu's "number of equations": rows kept in blocks
+  int block = 1;                    // rows kept in blocks of this many: block_eq under MueLu
+  int block_eq = 1;                 // MueLu's "number of equations" (1 if it does not fit)
+  // The preconditioner switch: the type for the current matrix, the type of `prec`, and the
+  // stiffness the model set for the next assembly.
+  std::string prec_type, built_type;
+  double stiffness = 0.0;
   void compress_rows(std::vector<size_t>& start, std::vector<GO>& cols, std::vector<SC>& vals);
   RCP<MueLu::HierarchyManager<SC, LO, GO, Map::node_type>> muelu;  // cached interpreter
   long long pattern_builds = 0;     // graphs built (the pattern changed)
@@ -134,11 +146,12 @@ LinearSystem::LinearSystem(MPI_Comm comm, long long global_rows, long long first
   if (m.map->getMinGlobalIndex() != first_row && local_rows > 0)
     throw std::logic_error("LinearSystem: rows must be numbered in rank order");
   m.raw_comm = comm;
-  if (m.params.get<std::string>("Preconditioner") == "MueLu" &&
-      m.params.sublist("MueLu").isParameter("number of equations")) {
-    m.block = m.params.sublist("MueLu").get<int>("number of equations");
-    if (m.block < 1 || local_rows % m.block != 0 || first_row % m.block != 0) m.block = 1;
+  if (m.params.sublist("MueLu").isParameter("number of equations")) {
+    m.block_eq = m.params.sublist("MueLu").get<int>("number of equations");
+    if (m.block_eq < 1 || local_rows % m.block_eq != 0 || first_row % m.block_eq != 0)
+      m.block_eq = 1;
   }
+  m.prec_type = m.params.get<std::string>("Preconditioner");
   int ranks = 1;
   MPI_Comm_size(comm, &ranks);
   std::vector<long long> firsts(static_cast<size_t>(ranks));
@@ -163,6 +176,8 @@ void LinearSystem::begin() {
   impl_->rows.resize(static_cast<size_t>(impl_->nlocal));
   for (auto& r : impl_->rows) r.clear();
 }
+
+void LinearSystem::set_stiffness(double s) { impl_->stiffness = s; }
 
 void LinearSystem::add(long long row, long long col, double v) {
   const long long lr = row - impl_->first;
@@ -315,6 +330,14 @@ void LinearSystem::end() {
   }
   const std::vector<LO> old_kept = m.kept;
   const GO old_rfirst = m.rfirst;
+  // The preconditioner of this matrix (the switch, if the list has one), and with it the
+  // blocks of the Krylov system: MueLu's equations per node are kept whole, the one-level
+  // preconditioners get exactly the coupled rows. The stiffness is the same on every rank.
+  m.prec_type = m.params.isParameter("Stiff preconditioner") &&
+                        m.stiffness >= m.params.get<double>("Stiff threshold")
+                    ? m.params.get<std::string>("Stiff preconditioner")
+                    : m.params.get<std::string>("Preconditioner");
+  m.block = m.prec_type == "MueLu" ? m.block_eq : 1;
   m.compress_rows(start, cols, vals);
   // Collective decision: a pattern that changed on one rank only (e.g. the free-surface flags
   // of one slab) must rebuild the graph and the preconditioner on every rank; a rank-local
@@ -367,7 +390,8 @@ void LinearSystem::end() {
   ++m.prec_age;
   const bool effective =
       m.last_converged && m.fresh_iters >= 0 && m.last_iters <= (3 * m.fresh_iters) / 2 + 2;
-  m.prec_stale = m.prec.is_null() || m.prec_age > reuse || !effective;
+  m.prec_stale = m.prec.is_null() || m.prec_age > reuse || !effective ||
+                 m.built_type != m.prec_type;
 }
 
 namespace {
@@ -397,9 +421,8 @@ class FreshLevelsInterpreter : public MueLuInterpreter {
 // parses and validates the list and builds its factories in every call, which took 45 % of the
 // N-DAM chute's run time at 5 mm (a new preconditioner in every step). The same interpreter sets
 // up each new hierarchy, as CreateXpetraPreconditioner does with a fresh one.
-RCP<OP> build_preconditioner(const RCP<Matrix>& A, const ParameterList& p,
-                             RCP<MueLuManager>& manager) {
-  const auto type = p.get<std::string>("Preconditioner");
+RCP<OP> build_preconditioner(const RCP<Matrix>& A, const std::string& type,
+                             const ParameterList& p, RCP<MueLuManager>& manager) {
   if (type == "None") return Teuchos::null;
   if (type == "MueLu") {
     if (manager.is_null()) {
@@ -448,6 +471,8 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   if (static_cast<LO>(b.size()) != m.nlocal || static_cast<LO>(x.size()) != m.nlocal)
     throw std::logic_error("LinearSystem::solve: vector size does not match the local rows");
   SolveStats st;
+  st.stiff = m.params.isParameter("Stiff preconditioner") &&
+             m.prec_type != m.params.get<std::string>("Preconditioner");
   // Trivial rows: x = b / d. The Krylov system holds the kept rows only.
   for (LO i = 0; i < m.nlocal; ++i)
     if (m.trivial_diag[static_cast<size_t>(i)] != 0.0)
@@ -461,7 +486,8 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   auto t0 = Clock::now();
   const bool fresh = m.prec_stale;
   if (m.prec_stale) {
-    m.prec = build_preconditioner(m.A, m.params, m.muelu);
+    m.prec = build_preconditioner(m.A, m.prec_type, m.params, m.muelu);
+    m.built_type = m.prec_type;
     m.prec_stale = false;
     m.prec_age = 0;
     st.setup_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -557,7 +583,7 @@ Teuchos::RCP<const ParameterList> LinearSystem::getValidParameters(
            "MueLu (smoothed-aggregation AMG, settings in the MueLu sublist), Ifpack2 RILUK "
            "(incomplete LU, level from the Ifpack2 sublist), Ifpack2 RELAXATION (Jacobi/"
            "Gauss-Seidel sweeps), or None",
-           {"MueLu", "Ifpack2 RILUK", "Ifpack2 RELAXATION", "None"});
+           kPreconditioners);
   add_double(*pl, "Tolerance", tolerance,
              "relative residual ||b - A x|| / ||b|| at which the Krylov iteration stops", 1e-16,
              1e-1);
@@ -572,7 +598,11 @@ Teuchos::RCP<const ParameterList> LinearSystem::getValidParameters(
   add_int(*pl, "GMRES restart", 50, "Krylov vectors kept between GMRES restarts", 1, 10000);
   // Pass-through lists: validated by MueLu/Ifpack2 themselves, not by us.
   ParameterList ml = default_muelu();
+  // MueLu validates its list itself, nested lists included ("smoother: params" takes the
+  // parameters of whichever smoother "smoother: type" names)
   ml.disableRecursiveValidation();
+  ml.sublist("coarse: params").disableRecursiveValidation();
+  ml.sublist("smoother: params").disableRecursiveValidation();
   pl->set("MueLu", ml,
           "parameters handed to MueLu::CreateTpetraPreconditioner as they are (MueLu's own "
           "names; see the MueLu user guide). Defaults: smoothed aggregation, one symmetric "
@@ -585,8 +615,24 @@ Teuchos::RCP<const ParameterList> LinearSystem::getValidParameters(
   return pl;
 }
 
+void LinearSystem::add_stiff_switch(ParameterList& pl, const std::string& preconditioner,
+                                    double threshold, const std::string& meaning) {
+  using namespace params;
+  add_enum(pl, "Stiff preconditioner", preconditioner,
+           "preconditioner (the values of Preconditioner) of the assemblies whose stiffness "
+           "reaches 'Stiff threshold'; stiffness: " + meaning,
+           kPreconditioners);
+  add_double(pl, "Stiff threshold", threshold,
+             "stiffness from which on 'Stiff preconditioner' replaces 'Preconditioner' (0: "
+             "always; a value above any stiffness: never)",
+             0.0, 1e300);
+}
+
 void LinearSystem::check(const ParameterList& p, int ranks) {
-  if (p.get<std::string>("Preconditioner") != "MueLu" || ranks <= 1) return;
+  const bool muelu = p.get<std::string>("Preconditioner") == "MueLu" ||
+                     (p.isParameter("Stiff preconditioner") &&
+                      p.get<std::string>("Stiff preconditioner") == "MueLu");
+  if (!muelu || ranks <= 1) return;
   const auto merged = merged_muelu(p);
   const auto& ml = p.isSublist("MueLu") ? p.sublist("MueLu") : merged;
   const std::string c = merged.get<std::string>("coarse: type");

@@ -313,6 +313,17 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
   full.cell = 0.005;
   full.height = 0.3;  // the wall column of the coupled run used to climb past 0.15 m
   full.end_time = 1.5;
+  // Momentum solves to 1e-12 instead of the default 1e-10 in both runs. The resting deposit
+  // amplifies solver-tolerance differences (docs/validation.md, "Momentum solve on deposits"):
+  // with fresh momentum preconditioners at 1e-10 (Gauss-Seidel or MueLu) full 2D and coupled
+  // alike open a void in the deposit between 1.45 and 1.5 s (1-2 hole cell-steps each, u_mean
+  // L2 0.05 at 1.5 s), with the lagged Gauss-Seidel preconditioner of before and with MueLu at
+  // 1e-12 neither does (u_mean L2 at most 0.020 and 0.022). The void is in both runs alike: it
+  // is the solve, not the coupling that this test is about.
+  full.ndam_extra = R"x(
+    <ParameterList name="Momentum solver">
+      <Parameter name="Tolerance" type="double" value="1e-12"/>
+    </ParameterList>)x";
   Chute cpl = full;
   cpl.name = "deposit_coupled";
   cpl.model = "Coupled";
@@ -404,14 +415,16 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
   EXPECT_EQ(la.holes, 0u);
   EXPECT_EQ(lb.holes, 0u);
   // From 0.65 s (after the impact peak) to 1 s at every output:
-  // u_mean within the issue's 3 % (L2; measured at most 2.1 % at 5 mm; the DAM's own 2 % faster flow
-  // over [0.2, 0.7] m is in it, docs/validation.md);
+  // u_mean within the issue's 3 % (L2; measured at most 2.2 % at 5 mm with the 1e-12 momentum
+  // solves, 2.0-2.1 % before at 1e-10; the DAM's own 2 % faster flow over [0.2, 0.7] m is in it,
+  // docs/validation.md);
   EXPECT_LT(worst_u, 0.03);
   // from 0.75 s the deposit profile within the issue's 5 % (L2 of the three-column mean over
   // x > 0.85 m; measured at most 3.8 % at 5 mm, against the 1.5-4 % two full 2D runs differ by);
   EXPECT_LT(worst_dep, 0.05);
-  // and the depth at the wall within 8 % (one column, not averaged: measured at most 3.5 %,
-  // the single-column scatter above is 5-7 %);
+  // and the depth at the wall within 8 % (one column, not averaged: measured at most 3.5 %, 5.5 %
+  // at 1.5 s since the short-step inflow velocity of kInflowHeldFraction; the single-column
+  // scatter above is 5-7 %);
   EXPECT_LT(worst_wall, 0.08);
   // the wall-bottom pressure, averaged over each output interval (the single-step value of one
   // cell swings by 10-20 % in both runs), within the issue's 10 % from 0.7 s at every output,

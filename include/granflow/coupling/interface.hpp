@@ -53,8 +53,9 @@ class Interface {
   /// The downstream side reads the upstream side's tentative state of the step.
   bool upstream_steps_first() const { return type_ == Type::OneDToTwoD; }
   /// The mass the upstream DAM lets out through x in the step [t, t + dt], once it has computed
-  /// that step (1D -> 2D; nullopt when no such step is pending).
-  std::optional<double> pending_mass(double t, double dt) const;
+  /// that step (1D -> 2D; nullopt when no such step is pending): {out, out - out_flux}, the
+  /// exact ledger term and its dt-independent averaging part (DamSolver::PendingStep).
+  std::optional<std::array<double, 2>> pending_mass(double t, double dt) const;
   /// After an accepted step: books what crossed x on each side.
   void book();
   /// Cumulative mass out of the upstream side through x and into the downstream side [m^2]

@@ -158,13 +158,17 @@ class DamSolver final : public core::Stepper {
   /// and moves `in` into the left end and `out` out of the right end (the exact ledger terms
   /// that accept() will book). Empty when no step is pending. A 2D subdomain downstream of a
   /// 1D-to-2D interface injects exactly `out` in the same step (the coupled model steps the
-  /// subdomains upstream first).
+  /// subdomains upstream first). `out_flux`: the part of `out` that is dt times the flux
+  /// through the right end; the rest, out - out_flux, is the staggered scheme's averaging term
+  /// at that end (O(dx^2 h_x), independent of dt), which dominates a step much shorter than the
+  /// stable one and can then make `out` negative while material flows out (docs/validation.md,
+  /// "Runtime domain manager").
   struct PendingStep {
-    double t0 = 0.0, dt = 0.0, in = 0.0, out = 0.0;
+    double t0 = 0.0, dt = 0.0, in = 0.0, out = 0.0, out_flux = 0.0;
   };
   std::optional<PendingStep> pending_step() const {
     if (!(t_new_ > t_)) return std::nullopt;
-    return PendingStep{t_, t_new_ - t_, in_new_, out_new_};
+    return PendingStep{t_, t_new_ - t_, in_new_, out_new_, out_flux_new_};
   }
   double x_left() const { return x0_; }
   double x_right() const { return x1_; }
@@ -217,7 +221,7 @@ class DamSolver final : public core::Stepper {
   double t_new_ = 0.0;
   bool staggered_new_ = false;  // the grid of the tentative state
   std::vector<double> h_new_, hu_new_;
-  double in_new_ = 0.0, out_new_ = 0.0;
+  double in_new_ = 0.0, out_new_ = 0.0, out_flux_new_ = 0.0;
   long fixes_new_ = 0;
 
   // ledger

@@ -156,8 +156,13 @@ class NdamSolver final : public core::Stepper {
   /// [t, t + dt], when known (a 1D-to-2D interface: exactly what the DAM upstream lets out in
   /// the same step). The step's inflow velocity is then that mass / (dt h) instead of the
   /// provider's u_mean; what cannot enter in a step (a negative or dry-side transfer, or beyond
-  /// the cap on the velocity, see docs/numerics.md) is carried to the next steps.
-  using InflowMass = std::function<std::optional<double>(double t, double dt)>;
+  /// the cap on the velocity, see docs/numerics.md) is carried to the next steps. `held`: the
+  /// part of `mass` that does not set this step's velocity but waits for the next step (the
+  /// DAM's dt-independent averaging term, DamSolver::PendingStep::out_flux).
+  struct InflowStepMass {
+    double mass = 0.0, held = 0.0;
+  };
+  using InflowMass = std::function<std::optional<InflowStepMass>(double t, double dt)>;
   void set_inflow(std::function<std::array<double, 2>(double t)> provider, InflowShape shape,
                   InflowPressure pressure = InflowPressure::None, double K = 1.0,
                   InflowMass mass = nullptr);

@@ -14,6 +14,10 @@ struct NdamStatistics {
   // linear solves (Belos): pressure projection and implicit momentum predictor
   long long pressure_solves = 0, pressure_iterations = 0;
   long long momentum_solves = 0, momentum_iterations = 0;
+  // momentum solves with the stiff preconditioner ('Stiff threshold') and their iterations;
+  // the most iterations of one momentum solve, and of one with the stiff preconditioner
+  long long momentum_stiff_solves = 0, momentum_stiff_iterations = 0;
+  int momentum_max_iterations = 0, momentum_stiff_max_iterations = 0;
   long long unconverged_solves = 0;
   double worst_pressure_residual = 0.0, worst_momentum_residual = 0.0;
   // preconditioner work of the linear systems that earlier layouts owned (added at a rebuild)
@@ -57,6 +61,11 @@ struct NdamStatistics {
     pressure_iterations += o.pressure_iterations;
     momentum_solves += o.momentum_solves;
     momentum_iterations += o.momentum_iterations;
+    momentum_stiff_solves += o.momentum_stiff_solves;
+    momentum_stiff_iterations += o.momentum_stiff_iterations;
+    momentum_max_iterations = std::max(momentum_max_iterations, o.momentum_max_iterations);
+    momentum_stiff_max_iterations =
+        std::max(momentum_stiff_max_iterations, o.momentum_stiff_max_iterations);
     unconverged_solves += o.unconverged_solves;
     worst_pressure_residual = std::max(worst_pressure_residual, o.worst_pressure_residual);
     worst_momentum_residual = std::max(worst_momentum_residual, o.worst_momentum_residual);

@@ -27,6 +27,7 @@ struct SolveStats {
   bool converged = false;
   double setup_seconds = 0.0;  ///< preconditioner setup in this call (0 if reused)
   double solve_seconds = 0.0;  ///< Krylov iterations
+  bool stiff = false;  ///< solved with the "Stiff preconditioner" (see set_stiffness)
 };
 
 /// Tpetra's (and Kokkos') initialisation for a main: holds a Tpetra::ScopeGuard. Create it
@@ -56,6 +57,12 @@ class LinearSystem {
 
   /// Start a new assembly (the previous matrix is discarded).
   void begin();
+  /// The stiffness of the matrix assembled next, a number the model defines (the N-DAM
+  /// momentum system: nu_eff,max dt / h^2). With a list that has the preconditioner switch
+  /// (add_stiff_switch), end() selects the "Stiff preconditioner" when s >= "Stiff threshold",
+  /// else "Preconditioner". Must be the same on every rank (the choice is collective). Kept
+  /// until the next call; without any call the stiffness is 0.
+  void set_stiffness(double s);
   /// Add v to A(row, col); row must be locally owned; duplicates are summed.
   void add(long long row, long long col, double v);
   /// Finish the assembly (collective); the preconditioner is rebuilt at the next solve.
@@ -84,6 +91,12 @@ class LinearSystem {
   /// Checks that cannot be expressed by validators (e.g. MueLu's direct coarse solver on more
   /// than one rank); throws params::InputError naming the parameter.
   static void check(const Teuchos::ParameterList& params, int ranks);
+  /// Adds the preconditioner switch to a list of getValidParameters(): "Stiff preconditioner"
+  /// (default `preconditioner`) replaces "Preconditioner" for the assemblies whose stiffness
+  /// (set_stiffness) reaches "Stiff threshold" (default `threshold`); `meaning` says what the
+  /// stiffness of this system is, for the documentation.
+  static void add_stiff_switch(Teuchos::ParameterList& pl, const std::string& preconditioner,
+                               double threshold, const std::string& meaning);
 
  private:
   struct Impl;
