@@ -117,15 +117,21 @@ bool NdamSolver::adapt() {
 void NdamSolver::rebuild_slabs(const std::vector<int>& starts) {
   const NdamState s = export_state();
   stats_ = statistics();  // the retiring linear systems' preconditioner work
+  relayout(starts);
+  import_state(s);
+  assemble_pressure();
+  flags_changed_ = false;
+}
+
+// The layout, fields, markers and linear systems of the slabs `starts` (empty: the equal split),
+// without a state: import_state() follows.
+void NdamSolver::relayout(const std::vector<int>& starts) {
   slab_starts_ = starts;
   mac_ = MacLayout(comm_, cfg_.grid, cfg_.periodic_x(), slab_starts_);
   has_obstacles_ = false;
   newton_.reset();  // built on the old map at the next step that needs it
   q_evaluated_.clear();
   setup();
-  import_state(s);
-  assemble_pressure();
-  flags_changed_ = false;
 }
 
 }  // namespace granflow::ndam

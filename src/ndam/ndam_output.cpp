@@ -429,14 +429,7 @@ void NdamSolver::load(const io::Checkpoint& c) {
     if (static_cast<int>(a.size()) == mac_.slab.ranks + 1)
       for (double v : a) starts.push_back(static_cast<int>(v));
   }
-  if (starts != slab_starts_) {
-    slab_starts_ = starts;
-    mac_ = MacLayout(comm_, cfg_.grid, cfg_.periodic_x(), slab_starts_);
-    has_obstacles_ = false;
-    newton_.reset();
-    q_evaluated_.clear();
-    setup();
-  }
+  if (starts != slab_starts_) relayout(starts);
   import_state(s);
 }
 

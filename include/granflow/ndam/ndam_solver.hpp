@@ -194,6 +194,7 @@ class NdamSolver final : public core::Stepper {
   std::vector<double> column_work() const;                 // every rank, from the flags
   std::vector<int> balanced_starts(const std::vector<double>& work) const;
   void rebuild_slabs(const std::vector<int>& starts);      // the same state on other slabs
+  void relayout(const std::vector<int>& starts);           // empty box on the slabs `starts`
   // --- boundaries.cpp: walls, moving lid, Coulomb slip ghosts, friction factors, ghosts -----
   Ref u_ref(int i, int k) const;
   Ref w_ref(int i, int k) const;
