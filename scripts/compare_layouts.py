@@ -3,6 +3,7 @@
 
   compare_layouts.py BUILD OUTDIR [--family setup2|lab_chute] [--cell MM] [--end T]
                      [--height H] [--interval DT] [--times T ...] [--rerun]
+                     [--variants V ...] [--set NAME=VALUE ...]
 
 Runs (or reuses, when OUTDIR/<variant>/summary.json of the same scene says 'completed') the
 four variants of the family at one resolution:
@@ -77,6 +78,14 @@ def variant_xml(family, variant, args, outdir):
         text = set_param(text, "Cells z", "int", int(round(h / dz)))
     if args.end:
         text = set_param(text, "End time", "double", args.end)
+    if variant == "dynamic":
+        for item in args.set or []:
+            name, _, value = item.partition("=")
+            typ = re.search(r'<Parameter name="%s" type="([^"]*)"' % re.escape(name), text)
+            if not typ or not value:
+                raise SystemExit("compare_layouts: --set '%s': the dynamic scene has no "
+                                 "parameter of that name (or no value given)" % item)
+            text = set_param(text, name, typ.group(1), value)
     if args.interval:
         text = set_param(text, "Interval", "double", args.interval)
     d = os.path.abspath(os.path.join(outdir, variant))
@@ -178,6 +187,9 @@ def main():
     ap.add_argument("--interval", type=float, default=0.05, help="[s] output interval")
     ap.add_argument("--times", type=float, nargs="*", help="[s] times of the error table")
     ap.add_argument("--rerun", action="store_true", help="run even where a result exists")
+    ap.add_argument("--set", action="append", metavar="NAME=VALUE",
+                    help="set a parameter of the dynamic scene (repeatable), e.g. "
+                         "--set 'Shallowness threshold=0.05'")
     ap.add_argument("--variants", nargs="+", default=VARIANTS, choices=VARIANTS,
                     help="the layouts to run (full and dynamic always: the reference and the "
                          "ideal saving)")

@@ -162,17 +162,39 @@ std::vector<Piece> DomainManager::target(const CoupledModel& model) {
     const auto q = static_cast<std::size_t>(s);
     return !near[q] && calm_since_[q] >= 0.0 && t - calm_since_[q] >= d_.hold_time - 1e-12;
   };
+  // A 2D subdomain that holds a deposit (material at rest) or ends at a wall of the channel is
+  // anchored: it gives back no columns on its upstream side (the side the flow comes from),
+  // because the deposit grows upstream and the shock it reflects runs upstream through exactly
+  // those columns. Giving them back makes the front meet the wall, and the shock start, through
+  // a 1D-to-2D interface a few centimetres upstream of it (Setup II: the calm supercritical
+  // layer in front of the wall went back to 1D before the impact, and behind the shock after
+  // it, and each of those moves put the inflow's adjustment zone next to the shock;
+  // docs/validation.md, "Runtime domain manager"). Its downstream end may still shrink.
+  const auto& ch = factory_->channel();
+  const bool wall_left = ch.left.type == core::BoundaryType::Wall;
+  const bool wall_right = ch.right.type == core::BoundaryType::Wall;
   for (const Run& r : runs(want)) {
     if (!r.two_d) continue;
-    bool all = true;  // a subdomain calm all over goes as a whole
+    bool anchored = (wall_left && r.s0 == 0) || (wall_right && r.s1 == nslots_);
+    for (int q = r.s0; q < r.s1 && !anchored; ++q)
+      anchored = wet[static_cast<std::size_t>(q)] &&
+                 std::abs(slots_[static_cast<std::size_t>(q)].u_mean) < d_.rest_speed;
+    bool all = !anchored;  // a subdomain calm all over goes as a whole
     for (int q = r.s0; q < r.s1 && all; ++q) all = releasable(q);
     if (all) {
       for (int q = r.s0; q < r.s1; ++q) want[static_cast<std::size_t>(q)] = 0;
       continue;
     }
+    // the upstream side: where the mean flow at the subdomain's ends comes from
+    const double u_lo = slots_[static_cast<std::size_t>(r.s0)].u_mean;
+    const double u_hi = slots_[static_cast<std::size_t>(r.s1 - 1)].u_mean;
+    const bool keep_lo = anchored && u_lo + u_hi >= 0.0;
+    const bool keep_hi = anchored && u_lo + u_hi < 0.0;
     int lo = r.s0, hi = r.s1;
-    while (hi - lo > min_slots && releasable(hi - 1)) want[static_cast<std::size_t>(--hi)] = 0;
-    while (hi - lo > min_slots && releasable(lo)) want[static_cast<std::size_t>(lo++)] = 0;
+    while (!keep_hi && hi - lo > min_slots && releasable(hi - 1))
+      want[static_cast<std::size_t>(--hi)] = 0;
+    while (!keep_lo && hi - lo > min_slots && releasable(lo))
+      want[static_cast<std::size_t>(lo++)] = 0;
   }
   // Minimum length: short 1D gaps and end pieces next to 2D become 2D; short new 2D subdomains
   // grow to the minimum (keeping the slots they have).
