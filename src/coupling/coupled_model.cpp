@@ -265,13 +265,39 @@ bool CoupledModel::adapt() { return manager_ && manager_->adapt(*this); }
 // up to kMaxSubsteps of them; without 2D parts, or without sub-cycling, it is every part's.
 double CoupledModel::stable_dt() const {
   double dt2 = std::numeric_limits<double>::infinity(), dt1 = dt2;
-  for (const auto& p : parts_) (p.one_d() ? dt1 : dt2) = std::min(p.one_d() ? dt1 : dt2,
-                                                                 p.model->stable_dt());
-  if (!subcycling_ || !std::isfinite(dt2)) return std::min(dt1, dt2);
-  return std::min(dt2, kMaxSubsteps * dt1);
+  part_dt_.assign(parts_.size(), 0.0);
+  for (std::size_t i = 0; i < parts_.size(); ++i) {
+    const auto& p = parts_[i];
+    part_dt_[i] = p.model->stable_dt();
+    (p.one_d() ? dt1 : dt2) = std::min(p.one_d() ? dt1 : dt2, part_dt_[i]);
+  }
+  const bool sub = subcycling_ && std::isfinite(dt2);
+  if (sub)
+    for (std::size_t i = 0; i < parts_.size(); ++i)
+      if (parts_[i].one_d()) part_dt_[i] *= kMaxSubsteps;
+  return sub ? std::min(dt2, kMaxSubsteps * dt1) : std::min(dt1, dt2);
+}
+
+// The part whose stable step the common step dt is, by its place in the channel, and what set
+// that part's step; or the driver's cut (an output time, the end, 'Max time step').
+std::string CoupledModel::dt_setter(double dt) const {
+  if (part_dt_.size() != parts_.size()) return "unknown";
+  std::size_t best = 0;
+  for (std::size_t i = 1; i < parts_.size(); ++i)
+    if (part_dt_[i] < part_dt_[best]) best = i;
+  if (dt < part_dt_[best] * (1.0 - 1e-9)) return "the driver (output time, end time, Max time step)";
+  const auto& p = parts_[best];
+  const bool first = best == 0, last = best + 1 == parts_.size();
+  std::string where = p.kind + (first && last ? " (the whole channel)"
+                                : first       ? " part at the upstream end"
+                                : last        ? " part at the downstream end"
+                                              : " part inside");
+  if (p.ndam) return where + ": " + p.ndam->dt_cause();
+  return where + ": wave speed |u| + sqrt(beta h)";
 }
 
 void CoupledModel::step(double dt) {
+  ++dt_set_by_[dt_setter(dt)];
   // Every subdomain steps from the states at t, in the order of the interface contract.
   for (std::size_t i : step_order_) parts_[i].model->step(dt);
 }
@@ -535,6 +561,9 @@ void CoupledModel::report(nlohmann::json& s) const {
                       {"mismatch", m[1] - m[0]}});
   }
   s["coupled"] = {{"subdomains", parts}, {"interfaces", ifaces}, {"steps", steps_}};
+  // steps per cause since this run started (or restarted); a step that was retried counts
+  // once per try
+  s["coupled"]["dt_set_by"] = dt_set_by_;
   if (manager_) manager_->report(s["coupled"]);
 }
 

@@ -206,15 +206,25 @@ double NdamSolver::stable_dt() const {
   umax = detail::allreduce_max(umax, comm_);
   wmax = detail::allreduce_max(wmax, comm_);
   double dt = std::numeric_limits<double>::infinity();
-  if (cfg_.free_surface && cfg_.inflow) umax = std::max(umax, std::abs(inflow_now_[1]));
-  if (umax > 0.0) dt = std::min(dt, dx / umax);
-  if (wmax > 0.0) dt = std::min(dt, dz / wmax);
+  dt_cause_ = "no flow";
+  // which candidate is the smallest (for the coupled model's tally of what sets the step)
+  auto cand = [&](double v, const char* why) {
+    if (v < dt) {
+      dt = v;
+      dt_cause_ = why;
+    }
+  };
+  const bool inflow_fastest = cfg_.free_surface && cfg_.inflow && std::abs(inflow_now_[1]) > umax;
+  if (inflow_fastest) umax = std::abs(inflow_now_[1]);
+  if (umax > 0.0) cand(dx / umax, inflow_fastest ? "inflow velocity, dx / |u_in|" : "advection, dx / |u|");
+  if (wmax > 0.0) cand(dz / wmax, "advection, dz / |w|");
   if (cfg_.momentum == Momentum::Explicit) {
     // Forward Euler on div(2 nu D): the largest eigenvalue is below
     // nu (8/dx^2 + 8/dz^2) (normal stress 2 nu, shear stress nu, 3-point stencils), so
     // dt <= 1 / (4 nu (1/dx^2 + 1/dz^2)) keeps it stable with the safety factor below.
     const double numax = max_nu_eff();
-    if (numax > 0.0) dt = std::min(dt, 1.0 / (4.0 * numax * (1.0 / (dx * dx) + 1.0 / (dz * dz))));
+    if (numax > 0.0)
+      cand(1.0 / (4.0 * numax * (1.0 / (dx * dx) + 1.0 / (dz * dz))), "explicit viscous limit");
     // Coulomb friction, explicit: the bed face loses nu_b (1 - a) / dz^2 of its velocity per
     // second (a: the Robin ghost factor), so forward Euler needs dt <= 1 / that rate.
     double rate = 0.0;
@@ -223,7 +233,7 @@ double NdamSolver::stable_dt() const {
       rate = std::max(rate, 0.5 * (nu_(i, 0) + nu_(i + 1, 0)) * (1.0 - a) / (dz * dz));
     }
     rate = detail::allreduce_max(rate, comm_);
-    if (rate > 0.0) dt = std::min(dt, 1.0 / rate);
+    if (rate > 0.0) cand(1.0 / rate, "explicit Coulomb friction limit");
   }
   // The start-up of the Coulomb friction (implicit momentum): while a base accelerates from rest
   // its friction factor c of (12) grows from 0 to 1 within |u| ~ 5 / m_c, i.e. over a few
@@ -233,12 +243,15 @@ double NdamSolver::stable_dt() const {
   // step (friction_dt_: the time over which it would grow by 1). A base that slows down or keeps
   // its speed sets no limit: a steady slide (c = 1) and a deposit at rest keep the advective
   // step, and a base coming to rest at a shock is not held back.
-  if (cfg_.momentum == Momentum::Implicit && friction_dt_ > 0.0) dt = std::min(dt, friction_dt_);
+  if (cfg_.momentum == Momentum::Implicit && friction_dt_ > 0.0)
+    cand(friction_dt_, "Coulomb friction start-up");
   dt *= cfg_.cfl;
   // Implicit and Newtonian: the dt of the assembled momentum matrix is held (kDtHoldFraction).
   if (cfg_.momentum == Momentum::Implicit && rheo_.newtonian() && momentum_dt_ > 0.0 &&
-      momentum_dt_ <= dt && momentum_dt_ >= kDtHoldFraction * dt)
+      momentum_dt_ <= dt && momentum_dt_ >= kDtHoldFraction * dt) {
     dt = momentum_dt_;
+    dt_cause_ = "held momentum matrix dt";
+  }
   return dt;
 }
 

@@ -21,6 +21,7 @@
 
 #include <array>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -124,8 +125,14 @@ class CoupledModel final : public core::Stepper {
 
  private:
   void reconnect();  // interfaces between the current parts, and the step order
+  std::string dt_setter(double dt) const;  // what set a step of length dt (after stable_dt())
 
   std::vector<Subdomain> parts_;
+  // per part, its stable step as the common step sees it (1D sub-cycled: kMaxSubsteps times
+  // its own), from the last stable_dt(); and per cause, the steps it set in this run (from the
+  // start or the restart: a diagnosis, not state)
+  mutable std::vector<double> part_dt_;
+  std::map<std::string, long> dt_set_by_;
   InterfaceOptions options_;
   std::shared_ptr<const SubdomainFactory> factory_;
   std::vector<std::unique_ptr<Interface>> interfaces_;

@@ -91,6 +91,9 @@ class NdamSolver final : public core::Stepper {
   core::MassBalance mass_balance() const override;
   core::Speed max_speed() const override;
   std::string dt_limit() const override;
+  /// What set the last stable_dt() (a short phrase: "advection, dx / |u|", "Coulomb friction
+  /// start-up", ...), for the coupled model's tally of what sets the common step.
+  const char* dt_cause() const { return dt_cause_; }
   void write_fields(io::FieldWriter& w) const override;
   void save(io::Checkpoint& c) const override;
   void load(const io::Checkpoint& c) override;
@@ -284,6 +287,7 @@ class NdamSolver final : public core::Stepper {
   std::vector<std::uint8_t> bed_stuck_, wall_stuck_;
   // dt over which the friction factor of the last step grew by 1 (stable_dt; <= 0: no limit)
   double friction_dt_ = -1.0;
+  mutable const char* dt_cause_ = "";  // set by stable_dt() (a string literal)
   double friction_growth_dt() const;  // that of the tentative step (collective)
 
   // the gate / 1D-to-2D inflow
