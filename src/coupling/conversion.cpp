@@ -204,6 +204,7 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
   // Inflow mass pending at an old 1D-to-2D interface (the gate's fractional markers and the
   // carried mass) that does not stay where it was: it goes to the first new 2D part that
   // contains or follows the old interface, to be injected at that part's upstream interface.
+  std::vector<std::pair<double, double>> pending_to_dam;  // (old interface x, mass)
   for (const auto& o : old) {
     bool kept = false;
     for (const auto& nb : boxes) kept = kept || same_node(plan[nb.piece].x0, o.x0);
@@ -218,8 +219,14 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
         to = &nb;
         break;
       }
-    if (to) to->owed += pending;
-    else rec.pending_lost += pending;
+    if (to) {
+      to->owed += pending;
+      continue;
+    }
+    // No 2D part follows: the old interface's upstream side (a DAM) has already let this mass
+    // out, so it goes back into the 1D part that now covers the old interface, at the old
+    // interface's place (below, once that part's cells are built).
+    pending_to_dam.push_back({o.x0, pending});
   }
   for (std::size_t p = first; p < first + count; ++p)
     if (parts[p].ndam) {
@@ -278,6 +285,31 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
       d.h.push_back(v[0]);
       d.hu.push_back(v[1]);
     }
+  }
+  // Pending inflow without a 2D part to take it: into the cell of the 1D part just downstream
+  // of the old interface (where the 2D part would have injected it), at that cell's velocity
+  // (hu grows with h, u_mean kept); the cell's width on the DAM's grid phase (the staggered
+  // grid's end cells are half cells inside the part).
+  for (const auto& [x, m] : pending_to_dam) {
+    std::size_t i = 0;
+    while (i + 1 < plan.size() && !(x + 1e-12 < plan[i].x1)) ++i;
+    NewDam& d = dams[i];
+    if (plan[i].kind != "1D" || d.h.empty()) {
+      rec.pending_lost += m;
+      continue;
+    }
+    const Piece& pd = plan[i];
+    const int n = factory.dam_cells(pd.x0, pd.x1);
+    const double dx = (pd.x1 - pd.x0) / n;
+    const double xi = (x + 1e-12 - pd.x0) / dx + (d.staggered ? 0.5 : 0.0);
+    const auto c = static_cast<std::size_t>(
+        std::clamp(static_cast<int>(std::floor(xi)), 0, static_cast<int>(d.h.size()) - 1));
+    const bool half = d.staggered && (c == 0 || c + 1 == d.h.size());
+    const double w = half ? 0.5 * dx : dx;
+    const double u = d.h[c] > 0.0 ? d.hu[c] / d.h[c] : 0.0;
+    d.h[c] += m / w;
+    d.hu[c] += m / w * u;
+    rec.pending_to_1d += m;
   }
   // The remainders go back to the DAM cell next to the filled columns (mass exact), else to the
   // inflow of a 2D part behind a 1D-to-2D interface; what finds no place stays booked.

@@ -19,6 +19,7 @@ namespace granflow::coupling {
 
 namespace {
 using Clock = std::chrono::steady_clock;
+constexpr int kMoveFields = 13;  // numbers per move in the checkpoint
 
 std::string describe(const std::vector<Subdomain>& parts) {
   std::ostringstream os;
@@ -301,8 +302,10 @@ void DomainManager::save(io::Checkpoint& c) const {
                            m.record.momentum_before, m.record.momentum_after, m.record.remainder,
                            m.record.remainder_given_back, m.record.remainder_to_inflow,
                            static_cast<double>(m.record.columns_to_2d),
-                           static_cast<double>(m.record.columns_to_1d), m.seconds});
+                           static_cast<double>(m.record.columns_to_1d), m.seconds,
+                           m.record.pending_to_1d, m.record.pending_lost});
   c.set("manager/moves", rec);
+  c.set("manager/move_fields", static_cast<double>(kMoveFields));
 }
 
 void DomainManager::load(const io::Checkpoint& c) {
@@ -315,7 +318,10 @@ void DomainManager::load(const io::Checkpoint& c) {
   checks_ = static_cast<long>(c.scalar("manager/checks"));
   const auto& rec = c.array("manager/moves");
   log_.clear();
-  for (std::size_t i = 0; i + 11 <= rec.size(); i += 11) {
+  // checkpoints written before the pending-inflow fields have 11 numbers per move
+  const auto stride = static_cast<std::size_t>(
+      c.has_scalar("manager/move_fields") ? c.scalar("manager/move_fields") : 11.0);
+  for (std::size_t i = 0; i + stride <= rec.size(); i += stride) {
     Move m;
     m.t = rec[i];
     m.record.mass_before = rec[i + 1];
@@ -328,6 +334,10 @@ void DomainManager::load(const io::Checkpoint& c) {
     m.record.columns_to_2d = static_cast<int>(rec[i + 8]);
     m.record.columns_to_1d = static_cast<int>(rec[i + 9]);
     m.seconds = rec[i + 10];
+    if (stride >= 13) {
+      m.record.pending_to_1d = rec[i + 11];
+      m.record.pending_lost = rec[i + 12];
+    }
     m.before = m.after = "(before the restart)";
     log_.push_back(m);
   }
@@ -350,6 +360,9 @@ void DomainManager::report(nlohmann::json& s) const {
                      {"momentum_after", m.record.momentum_after},
                      {"marker_remainder", m.record.remainder},
                      {"remainder_given_back", m.record.remainder_given_back},
+                     {"remainder_to_inflow", m.record.remainder_to_inflow},
+                     {"pending_inflow_to_1d", m.record.pending_to_1d},
+                     {"pending_inflow_lost", m.record.pending_lost},
                      {"columns_to_2d", m.record.columns_to_2d},
                      {"columns_to_1d", m.record.columns_to_1d},
                      {"seconds", m.seconds}});

@@ -55,10 +55,14 @@ struct ConversionRecord {
   /// Pending inflow of a 1D-to-2D interface that vanished with no 2D part downstream to take
   /// it (a change of the run's mass, booked here) [m^2].
   double pending_lost = 0.0;
+  /// Pending inflow of a vanished 1D-to-2D interface with no 2D part downstream, put back into
+  /// the DAM cell just downstream of it (in mass_after) [m^2].
+  double pending_to_1d = 0.0;
   /// Mass not accounted for by the move: mass_after + remainder_to_inflow - mass_before -
-  /// pending_lost (round-off when every remainder and pending inflow found a place).
+  /// pending_to_1d - pending_lost (round-off when every remainder and pending inflow found a
+  /// place; -pending_lost when some did not).
   double defect() const {
-    return mass_after + remainder_to_inflow - mass_before - pending_lost;
+    return mass_after + remainder_to_inflow - mass_before - pending_to_1d - pending_lost;
   }
   int columns_to_2d = 0, columns_to_1d = 0;  ///< 2D-column-sized slots that changed model
 };
