@@ -403,7 +403,10 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
       if (same_node(o.x1, pc.x1)) st.removed = o.state.removed;
     }
     if (first_stats) st.steps = parts[first].model->steps();
-    if (st.inject_next == 0) st.inject_next = 1LL << 62;  // the id range of injected markers
+    // Filled markers take ids of the box's injected range, kInjectedIdBase + its counter (the
+    // counter continues the old boxes' largest; ids are hashed into the injected markers'
+    // heights, so a restart must see the same counter, and a counter that held 2^62 itself lost
+    // its last bits in the checkpoint's double and overflowed the ids)
     st.inflow_owed += nb.owed;
     // centre velocity of column j (cell k) and its depth, for copied and filled columns
     std::vector<std::vector<double>> uc(static_cast<std::size_t>(nx),
@@ -450,11 +453,11 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
       for (long long r = 0; r < full; ++r)
         for (int q = 0; q < nmx; ++q)
           st.markers.push_back(ndam::Marker{j * nb.dx + (q + 0.5) * sx, (r + 0.5) * sz,
-                                            st.inject_next++});
+                                            ndam::kInjectedIdBase + st.inject_next++});
       for (long long q = 0; q < partial; ++q) {
         const auto slot = static_cast<int>(std::floor((q + 0.5) * nmx / partial));
         st.markers.push_back(ndam::Marker{j * nb.dx + (slot + 0.5) * sx, (full + 0.5) * sz,
-                                          st.inject_next++});
+                                          ndam::kInjectedIdBase + st.inject_next++});
       }
       const double h = static_cast<double>(n) * area / nb.dx;
       hcol[static_cast<std::size_t>(j)] = h;

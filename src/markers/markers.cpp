@@ -12,7 +12,6 @@ namespace granflow::ndam {
 
 namespace {
 constexpr int G = Field::G;
-constexpr long long kInjectedIdBase = 1LL << 62;  // ids of injected markers start here
 constexpr int kLeft = 0, kRight = 1, kBottom = 2, kTop = 3;
 // [rows] an opening h_in within this of a row boundary ends at that row: h_in / s_z is computed
 // in floating point, and an opening of exactly R rows must not get an empty row R + 1.

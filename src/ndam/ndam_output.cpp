@@ -11,6 +11,8 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 
 namespace granflow::ndam {
 
@@ -358,6 +360,11 @@ void NdamSolver::save(io::Checkpoint& c) const {
     c.set("ndam/markers_z", zs);
     c.set("ndam/markers_id", ids);
     c.set("ndam/markers_accumulators", s.inflow_accumulators);
+    // counters are stored as doubles: exact below 2^53 (they count markers)
+    if (s.inject_next >= (1LL << 53) || s.seed_base >= (1LL << 53))
+      throw std::logic_error("N-DAM checkpoint: a marker id counter beyond 2^53 (inject_next " +
+                             std::to_string(s.inject_next) + ", seed_base " +
+                             std::to_string(s.seed_base) + ") would not be stored exactly");
     c.set("ndam/markers_inject_next", static_cast<double>(s.inject_next));
     c.set("ndam/markers_seed_base", static_cast<double>(s.seed_base));
     c.set("ndam/markers_injected", static_cast<double>(s.injected));
@@ -404,6 +411,9 @@ void NdamSolver::load(const io::Checkpoint& c) {
                                      static_cast<long long>(ids[2 * q + 1])});
     s.inflow_accumulators = c.array("ndam/markers_accumulators");
     s.inject_next = static_cast<long long>(c.scalar("ndam/markers_inject_next"));
+    // checkpoints of a box the domain manager built before the counter was a count held
+    // kInjectedIdBase + n, rounded to a double (not exact: such a restart is not bit for bit)
+    if (s.inject_next >= kInjectedIdBase) s.inject_next -= kInjectedIdBase;
     s.seed_base = static_cast<long long>(c.scalar("ndam/markers_seed_base"));
     s.injected = static_cast<long long>(c.scalar("ndam/markers_injected"));
     s.removed = static_cast<long long>(c.scalar("ndam/markers_removed"));

@@ -87,10 +87,11 @@ print("restart: %d rows kept to the checkpoint, %d continued, identical to the s
       % (len(kept), len(a) - 1 - len(kept)))
 EOF
 
-# 3. The coupled model with a dynamic layout: the 2D part at the wall is rebuilt as its
-#    interface moves; the series goes on, one row per step.
+# 3. The coupled model with a dynamic layout: the 2D part at the wall, 5 cm at first, is rebuilt
+#    as it grows upstream at the impact (Margin 0.1 m: a part at a wall keeps its columns, so the
+#    paper's 0.3 m part would not move by 0.65 s); the series goes on, one row per step.
 nd dyn.xml dyn 0.65 -e 's|"Model" type="string" value="N-DAM"|"Model" type="string" value="Coupled"|' \
-   -e 's|<ParameterList name="Material">|<ParameterList name="Decomposition"><Parameter name="Layout" type="string" value="Dynamic"/><Parameter name="Models" type="Array(string)" value="{2D, 1D, 2D}"/><Parameter name="Interfaces" type="Array(double)" value="{0.2, 0.7}"/></ParameterList><ParameterList name="DAM"><Parameter name="Cells" type="int" value="100"/><Parameter name="Scheme" type="string" value="Beam-Warming"/></ParameterList>&|'
+   -e 's|<ParameterList name="Material">|<ParameterList name="Decomposition"><Parameter name="Layout" type="string" value="Dynamic"/><Parameter name="Models" type="Array(string)" value="{2D, 1D, 2D}"/><Parameter name="Interfaces" type="Array(double)" value="{0.2, 0.95}"/><Parameter name="Margin" type="double" value="0.1"/></ParameterList><ParameterList name="DAM"><Parameter name="Cells" type="int" value="100"/><Parameter name="Scheme" type="string" value="Beam-Warming"/></ParameterList>&|'
 expect 0 "completed at t = 0.65 s" dyn.xml
 steps=$(json dyn/summary.json "s['steps']")
 rows=$(($(wc -l < dyn/wall.csv) - 1))

@@ -68,6 +68,12 @@ struct Marker {
   long long id = 0;         ///< unique over all ranks (seeding: from the cell; injection: a counter)
 };
 
+/// Ids of markers that a box did not seed itself (injected at the gate, or filled into a column
+/// by the domain manager's conversion) are kInjectedIdBase + the box's counter
+/// (MarkerState::inject_next, a count from 0, well below 2^53 so that a checkpoint's double
+/// holds it exactly).
+inline constexpr long long kInjectedIdBase = 1LL << 62;
+
 /// Global marker bookkeeping (areas in m^2 of the x-z plane, i.e. m^3 per metre of width).
 struct MarkerMass {
   long long count = 0;     ///< markers now
