@@ -70,7 +70,7 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
                0.0, 1e6);
     add_double(*pl, "Hold time", d.hold_time,
                "[s] Dynamic layout: how long eps must stay below 'Lower threshold' before a 2D "
-               "column becomes 1D",
+               "column becomes 1D; at least 'Check interval'",
                0.0, 1e6);
     add_double(*pl, "Check interval", d.check_interval,
                "[s] Dynamic layout: time between two evaluations of the layout (at the end of "
@@ -133,6 +133,15 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
     params::fail(pl, "Lower threshold", params::str(d.eps_lower),
                  "must be below 'Shallowness threshold' = " + params::str(d.eps_threshold) +
                      " (the hysteresis between the two keeps interfaces from flickering)");
+  if (d.layout == "Dynamic" && d.hold_time < d.check_interval)
+    params::fail(pl, "Hold time", params::str(d.hold_time),
+                 "must be at least 'Check interval' = " + params::str(d.check_interval) +
+                     " s (a column goes back to 1D only once it was calm at two checks; a "
+                     "shorter hold lets an interface flip at every check)");
+  if (d.layout != "Static" && d.min_length > channel.length)
+    params::fail(pl, "Minimum length", params::str(d.min_length),
+                 "must not exceed the channel length L = " + params::str(channel.length) +
+                     " m (no subdomain could be built)");
   if (d.layout == "Static" || (d.layout == "Dynamic" && d.initial_layout == "Static")) {
     if (d.models.size() != d.interfaces.size() + 1)
       params::fail(pl, "Models", Teuchos::toString(models),

@@ -14,6 +14,8 @@
 #include "granflow/coupling/domain_manager.hpp"
 #include "granflow/params/parameters.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <memory>
@@ -32,6 +34,61 @@ const std::vector<std::string>& model_names() {
 }
 
 namespace {
+
+// A coupled scene's initial material comes from two lists: 'Initial condition' fills the 1D
+// subdomains, 'N-DAM->Initial depth' (on [Initial x0, Initial x1)) the 2D ones. Material that
+// one of them puts where the other model runs at t = 0 would be dropped without a word: refused.
+void check_initial_material(const Teuchos::ParameterList& p, const Teuchos::ParameterList* uic,
+                            const core::Channel& channel, const coupling::Decomposition& layout) {
+  const auto d = layout.normalised(channel.length);
+  if (d.models.size() != d.interfaces.size() + 1) return;
+  const double L = channel.length;
+  const auto ic = dam::InitialCondition::from_parameters(p.sublist("Initial condition"), uic,
+                                                         channel);
+  using T = dam::InitialCondition::Type;
+  std::vector<std::array<double, 2>> wet;  // intervals of the 1D initial condition's material
+  switch (ic.type) {
+    case T::Dry: break;
+    case T::Uniform:
+    case T::SineWave:
+      if (ic.depth > 0.0) wet.push_back({0.0, L});
+      break;
+    case T::DamBreak:
+      if (ic.left_depth > 0.0) wet.push_back({0.0, ic.position});
+      if (ic.right_depth > 0.0) wet.push_back({ic.position, L});
+      break;
+    case T::Block:
+      if (ic.depth > 0.0) wet.push_back({ic.start, ic.end});
+      break;
+  }
+  const auto& nd = p.sublist("N-DAM");
+  const double h2 = nd.get<double>("Initial depth");
+  const double a2 = std::max(0.0, nd.get<double>("Initial x0"));
+  const double b2 = std::min(L, nd.get<double>("Initial x1"));
+  for (std::size_t i = 0; i < d.models.size(); ++i) {
+    const auto [x0, x1] = d.extent(i, L);
+    const std::string part = d.models[i] + " subdomain [" + params::str(x0) + ", " +
+                             params::str(x1) + "] m";
+    if (d.models[i] == "2D") {
+      for (const auto& w : wet)
+        if (std::min(w[1], x1) > std::max(w[0], x0))
+          params::fail(p.sublist("Initial condition"), "Type", dam::to_string(ic.type),
+                       "puts material on [" + params::str(std::max(w[0], x0)) + ", " +
+                           params::str(std::min(w[1], x1)) + "] m, inside the " + part +
+                           " at t = 0, whose material comes from 'N-DAM->Initial depth' (on "
+                           "'Initial x0'..'Initial x1'); allowed: 'Initial condition' material in "
+                           "1D subdomains only");
+    } else if (h2 > 0.0 && std::min(b2, x1) > std::max(a2, x0)) {
+      params::fail(nd, "Initial depth", params::str(h2),
+                   "puts a layer on [" + params::str(std::max(a2, x0)) + ", " +
+                       params::str(std::min(b2, x1)) + "] m, inside the " + part +
+                       " at t = 0, whose material comes from 'Initial condition'; allowed: an "
+                       "N-DAM initial layer in 2D subdomains only (set 'Initial x0' and "
+                       "'Initial x1')");
+    }
+  }
+}
+
 // Output times a run may have (End time / Interval); see check_output.
 constexpr double kMaxOutputTimes = 100000;
 
@@ -191,6 +248,7 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
         d = coupling::a_priori_layout(d, material, channel, cfg, init,
                                       p.sublist("Time").get<double>("End time"),
                                       p.sublist("Output").get<double>("Interval"));
+      check_initial_material(p, uic, channel, d);
       const bool any_2d = std::find(d.models.begin(), d.models.end(), "2D") != d.models.end();
       // a dynamic layout may create 2D subdomains later: it always configures the 2D model
       if (!any_2d && !dynamic) return coupling::build(d, material, channel, cfg, init);
@@ -211,9 +269,23 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
           ndam::Rheology::from_parameters(p.sublist("Rheology"), user_sub("Rheology"), material);
       two_d.physics = ndam::NdamPhysics::from(material, channel);
       auto coupled = coupling::build(d, material, channel, cfg, init, &two_d);
-      if (dynamic)
-        coupled->set_domain_manager(
-            std::make_unique<coupling::DomainManager>(d, coupled->factory()));
+      if (dynamic) {
+        auto dm = std::make_unique<coupling::DomainManager>(d, coupled->factory());
+        // The manager moves interfaces by whole slots, between nodes common to both grids; a
+        // user's initial interface elsewhere would be moved at the first check (or, within
+        // round-off of a node, kept off it, and the later conversion would miss the sliver).
+        const double w = dm->slot_width();
+        const auto& pd = p.sublist("Decomposition");
+        if (d.initial_layout == "Static")
+          for (double x : d.interfaces)
+            if (std::abs(x / w - std::round(x / w)) > 1e-9)
+              params::fail(pd, "Interfaces", params::str(x),
+                           "with Layout = Dynamic every interface must lie on a node common to "
+                           "the 2D columns and the 1D cells, a multiple of " + params::str(w) +
+                               " m (nearest: " + params::str(std::floor(x / w) * w) + " or " +
+                               params::str(std::ceil(x / w) * w) + ")");
+        coupled->set_domain_manager(std::move(dm));
+      }
       return coupled;
     }
     if (s.model == "DAM") {

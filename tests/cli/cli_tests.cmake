@@ -42,6 +42,17 @@ granflow_cli_test(ic_parameter_of_other_type 2 "Initial condition->Left depth.*n
                   ${_cli}/bad_ic_mismatch.xml)
 granflow_cli_test(dam_position_outside 2 "Position' = 2.*outside the channel.*\\[0, 1\\]"
                   ${_cli}/bad_position.xml)
+# the dynamic layout's own checks, and initial material that the other model's part would drop
+granflow_cli_test(dynamic_hold_below_check 2 "Hold time' = 0: must be at least 'Check interval' = 0.005"
+                  ${_cli}/bad_dynamic_hold.xml)
+granflow_cli_test(dynamic_min_length_above_channel 2 "Minimum length' = 2: must not exceed the channel length L = 1"
+                  ${_cli}/bad_dynamic_min_length.xml)
+granflow_cli_test(dynamic_interface_off_node 2 "Interfaces' = 0.2000001: with Layout = Dynamic every interface must lie on a node.*multiple of 0.005 m"
+                  ${_cli}/bad_dynamic_off_node.xml)
+granflow_cli_test(coupled_ic_in_2d_part 2 "Initial condition->Type' = Block: puts material on \\[0, 0.1\\] m, inside the 2D subdomain"
+                  ${_cli}/bad_coupled_ic_in_2d.xml)
+granflow_cli_test(coupled_ndam_ic_in_1d_part 2 "N-DAM->Initial depth' = 0.05: puts a layer on \\[0.3, 0.5\\] m, inside the 1D subdomain"
+                  ${_cli}/bad_coupled_ndam_ic_in_1d.xml)
 
 # a valid run completes and writes the output contract
 granflow_cli_test(good_run 0 "completed at t = 0.2 s" ${_cli}/good_run.xml)
