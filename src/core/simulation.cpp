@@ -273,6 +273,10 @@ void Simulation::write_checkpoint() {
   io::Checkpoint c;
   c.set("run/time", model_->time());
   c.set("run/origin", origin_);
+  // the run's fastest state so far, so that a restarted run's summary covers the whole run
+  c.set("run/max_speed", std::vector<double>{max_speed_.value, max_speed_t_, max_speed_.x,
+                                              max_speed_.z});
+  c.set_text("run/max_speed_quantity", max_speed_.quantity);
   c.set_text(kSceneKey, joined(canonical_));
   c.set_text(kIdentityKey, identity_);
   model_->save(c);
@@ -574,6 +578,11 @@ int Simulation::advance(const io::Checkpoint& ck) {
   // that is no output time) writes at the same times as a straight run. k Interval, not a sum
   // of Intervals: the same double in both runs.
   origin_ = restarted_ && ck.has_scalar("run/origin") ? ck.scalar("run/origin") : t0_;
+  if (restarted_ && ck.arrays().count("run/max_speed") && ck.has_text("run/max_speed_quantity")) {
+    const auto& v = ck.array("run/max_speed");
+    max_speed_ = Speed{v.at(0), v.at(2), v.at(3), ck.text("run/max_speed_quantity")};
+    max_speed_t_ = v.at(1);
+  }
   const double eps_t = 1e-9 * std::max(1.0, rc_.end_time);  // round-off of t += dt
   auto output_time = [&](long k) { return origin_ + static_cast<double>(k) * rc_.output_interval; };
   next_index_ = 1;
