@@ -242,6 +242,64 @@ bool DamSolver::wall_centred(int j, int n, bool on_b) const {
          (j == n - 1 && right_.type == BoundaryType::Wall);
 }
 
+// The state on the face of a prescribed inflow (the gate). The characteristics of (15)-(16) at
+// the end are u + c and u - c, c = sqrt(beta h) (source terms aside, with the Riemann invariants
+// R+/- = u +/- 2c); counted in the direction v = sigma u into the channel (sigma = +1 at the left
+// end, -1 at the right), the gate state can prescribe as many quantities as characteristics
+// enter: both at a supercritical inflow (v > c), one at a subcritical one (|v| < c), where the
+// other, R = v - 2c, arrives from the interior and the gate state must carry it. Imposing both
+// h_in and u_in at a subcritical gate is over-determined: when the wave reflected by the wall
+// of the horizontal chute backed up to the gate (interior deeper and slower than the gate
+// state), the fixed end flux kept feeding h_in u_in with the momentum flux of the shallow gate
+// state, the interior pressure drove the end cell backwards against a face that lets nothing
+// out, and the gate cell reached h = 3.1 m, u = -323 m/s (docs/validation.md, "Stability suite").
+//
+// Rule. R_0 = v_0 - 2 c_0 of the end cell (the interior side; 0 if dry), R_in = v_in - 2 c_in of
+// the user's state:
+//  - R_0 >= R_in (the interior does not push back harder than the gate state carries: a dry or
+//    shallow channel accelerating away from the gate, or the steady inflow itself): the user's
+//    (h_in, u_in), as before. Every shipped scene stays here (bit for bit).
+//  - R_0 < R_in (the channel is backed up to the gate): the gate keeps the prescribed
+//    *discharge* q_in = h_in v_in, which is what a gate fed by a silo delivers and what the
+//    user's mass flux is, and takes the depth from the outgoing invariant:
+//      q_in / h_b - 2 sqrt(beta h_b) = R_0,   u_b = q_in / h_b,
+//    whose root is unique (the left side falls monotonically in h_b) and h_b > h_in, so
+//    v_b < v_in: a subcritical inflow gate stays subcritical. At R_0 = R_in the two branches
+//    agree (continuous switch). A supercritical gate drowned by a bore keeps its state unless
+//    the backed-up state is subcritical (then its R_0 really reaches the gate).
+// The gate never lets material out: where the interior flows towards it (v_0 < 0, the
+// reflected wave arriving), R_0 < R_in and the gate state is the one of the same outgoing
+// invariant that still carries q_in in, deeper and slower (v_b in (0, v_in]); for a closed gate
+// (q_in = 0) it is u_b = 0, c_b = c_0 - v_0 / 2: the reflection at a wall. beta: g cos(zeta)
+// K(0), the mean of the Rankine limits (the face's K is not known before the step).
+std::array<double, 2> DamSolver::gate_state(const DamBoundary& b, int side, double t, double x,
+                                            double h_end, double hu_end) const {
+  const auto s = b.inflow(t, x);
+  const double sigma = side == 0 ? 1.0 : -1.0;
+  const double h_in = std::max(0.0, s[0]), v_in = sigma * s[1];
+  if (v_in < 0.0) return s;  // a "gate" that draws material out: prescribed as given
+  const double a = std::sqrt(phys_.g_cos * phys_.K(0.0));  // c = a sqrt(h)
+  const double q = h_in > cfg_.dry_depth ? h_in * v_in : 0.0;
+  const double R_in = v_in - 2.0 * a * std::sqrt(h_in);
+  const bool wet = h_end > cfg_.dry_depth;
+  const double R_0 = wet ? sigma * hu_end / h_end - 2.0 * a * std::sqrt(h_end) : 0.0;
+  if (!(R_0 < R_in)) return s;
+  // q / h - 2 a sqrt(h) = R_0 in s = sqrt(h): g(s) = 2 a s^3 + R_0 s^2 - q = 0. g is convex and
+  // increasing right of its root, and s_0 = max(-R_0 / 2a, 0) + cbrt(q / 2a) has g(s_0) >= 0,
+  // so Newton from s_0 descends monotonically onto the root.
+  double r = std::max(-R_0 / (2.0 * a), 0.0) + std::cbrt(q / (2.0 * a));
+  for (int it = 0; it < 100; ++it) {
+    const double g = (2.0 * a * r + R_0) * r * r - q, dg = (6.0 * a * r + 2.0 * R_0) * r;
+    if (!(dg > 0.0)) break;
+    const double next = r - g / dg;
+    if (!(next < r)) break;  // converged (monotone descent stalls at round-off)
+    r = next;
+  }
+  const double h_b = r * r, v_b = h_b > 0.0 ? q / h_b : 0.0;
+  if (!(v_b < a * r)) return s;  // still supercritical: both characteristics enter
+  return {h_b, sigma * v_b};
+}
+
 // Ghost cells: index j of the grid is stored at j + G; j = -2, -1 and n, n+1 are ghosts.
 // Primary grid: the channel ends are cell faces. Staggered grid: the ends are cell centres of the
 // first and last cell, so mirrors are taken about those centres.
@@ -262,7 +320,10 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
   // with the reflection). Where that would leave a ghost shallower than h_in / 2 (material
   // piled up at the end, or a dry inflow) the ghosts are w_in. The ghosts only shape slopes and
   // the predictor: what enters is the end flux of step().
-  auto set_inflow = [&](int dst, int end, const std::array<double, 2>& s, bool prescribed) {
+  auto set_inflow = [&](int dst, int end, std::array<double, 2> s, const DamBoundary& b,
+                        int side, double x) {
+    const bool prescribed = b.prescribed;
+    if (prescribed) s = gate_state(b, side, t, x, h[at(end)], hu[at(end)]);
     const double hr = 2.0 * s[0] - h[at(end)], hur = 2.0 * s[0] * s[1] - hu[at(end)];
     if (prescribed && !on_b && hr >= 0.5 * s[0] && s[0] > cfg_.dry_depth)
       set(dst, hr, hur);
@@ -272,8 +333,8 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
   switch (left_.type) {
     case BoundaryType::Inflow:
       for (int g = -2; g <= -1; ++g) {
-        const auto s = left_.inflow(t, x0_ + (g + (on_b ? 0.0 : 0.5)) * dx_);
-        set_inflow(g, 0, s, left_.prescribed);
+        const double x = x0_ + (g + (on_b ? 0.0 : 0.5)) * dx_;
+        set_inflow(g, 0, left_.inflow(t, x), left_, 0, x);
       }
       break;
     case BoundaryType::Outflow:
@@ -290,8 +351,8 @@ void DamSolver::fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int
   switch (right_.type) {
     case BoundaryType::Inflow:
       for (int g = 0; g <= 1; ++g) {
-        const auto s = right_.inflow(t, x0_ + (n + g + (on_b ? 0.0 : 0.5)) * dx_);
-        set_inflow(n + g, n - 1, s, right_.prescribed);
+        const double x = x0_ + (n + g + (on_b ? 0.0 : 0.5)) * dx_;
+        set_inflow(n + g, n - 1, right_.inflow(t, x), right_, 1, x);
       }
       break;
     case BoundaryType::Outflow:
@@ -456,9 +517,27 @@ void DamSolver::step_once(double dt) {
   for (int j = -2; j < n + 2; ++j) flux(j, h[at(j)], hu[at(j)], f0[at(j)], f1[at(j)]);
   std::vector<double> sh(h.size(), 0.0), shu(h.size(), 0.0), sf0(h.size(), 0.0),
       sf1(h.size(), 0.0);
+  // Beam-Warming's unlimited upwind difference is taken only where it keeps the depth
+  // reconstruction as positive as minmod does, |h'_j| <= h_j (the reconstruction then stays
+  // >= h_j / 2 across the cell); elsewhere, and in dry cells, every component of the cell takes
+  // the minmod slope (bw_ok). Smooth flow (|h'| << h) keeps the paper's scheme. Before, where
+  // the depth fell steeply to a front, the upwind difference was up to 10 times the cell's own
+  // depth (h = 4e-5 m, h' = -4.2e-4 m), the half-cell averages of the corrector were negative
+  // or tiny, and the ratio hu / h of the cells they formed ahead of and at the tip was set by
+  // flux differences, not by a velocity: the coupled Setup II's DAM, fed a thick slow front by
+  // its 2D part, ran its tip at 9-15 m/s where the bound is 4.48 m/s (the DAM alone, whose
+  // front from the gate is thin and fast, at 3.6 m/s; docs/validation.md, "Stability suite").
+  // A dry cell ahead of a front took 0 - h_tip as its slope, and the predictor moved mass
+  // into it.
+  auto bw_ok = [&](int j) {
+    const auto k = at(j);
+    if (h[k] <= cfg_.dry_depth) return false;
+    const double d = u[k] >= 0.0 ? h[k] - h[k - 1] : h[k + 1] - h[k];
+    return std::abs(d) <= h[k];
+  };
   auto limit = [&](double dm, double dp, int j) {
     if (wall_centred(j, n, on_b)) return 0.5 * (dm + dp);  // symmetric about the wall
-    if (cfg_.scheme == Scheme::Minmod) return minmod(dm, dp);
+    if (cfg_.scheme == Scheme::Minmod || !bw_ok(j)) return minmod(dm, dp);
     return u[at(j)] >= 0.0 ? dm : dp;  // Beam-Warming: one-sided upwind difference
   };
   auto slope = [&](const std::vector<double>& v, int j) {
@@ -513,8 +592,11 @@ void DamSolver::step_once(double dt) {
   // two sides agree to 5e-4 at CFL 0.45, 7e-7 at a hundredth of it; docs/validation.md).
   const bool half_left = left_.type == BoundaryType::Inflow && left_.prescribed;
   const bool half_right = right_.type == BoundaryType::Inflow && right_.prescribed;
-  auto end_flux = [&](const DamBoundary& b, double x_end, double bc) -> std::array<double, 2> {
-    const auto s = b.inflow(t_ + 0.5 * dt, x_end);
+  // The state on the face is the gate state (gate_state) of the predicted end cell.
+  auto end_flux = [&](const DamBoundary& b, int side, double x_end,
+                      double bc) -> std::array<double, 2> {
+    const auto e = at(side == 0 ? 0 : n - 1);
+    const auto s = gate_state(b, side, t_ + 0.5 * dt, x_end, hm[e], hum[e]);
     return {s[0] * s[1], s[0] * s[1] * s[1] + 0.5 * bc * s[0] * s[0]};
   };
   std::array<double, 2> F_left{0.0, 0.0}, F_right{0.0, 0.0};
@@ -533,8 +615,8 @@ void DamSolver::step_once(double dt) {
     double hn, q, hmid;
     bool held = false;
     const double bc = beta_face(L, R);  // K of the new cell
-    if (half_left && j == 0) F_left = end_flux(left_, x0_, bc);
-    if (half_right && j == nn - 1) F_right = end_flux(right_, x1_, bc);
+    if (half_left && j == 0) F_left = end_flux(left_, 0, x0_, bc);
+    if (half_right && j == nn - 1) F_right = end_flux(right_, 1, x1_, bc);
     if (!on_b && j == 0 && half_left) {
       // half cell [x0, x0 + dx/2]: the left half of old cell 0's reconstruction, the end flux
       // in, the flux at old cell 0's centre out (widths dx/2: factor 2 lam)
@@ -667,7 +749,11 @@ void DamSolver::euler_stage(const std::vector<double>& h0, const std::vector<dou
   // slopes on cells -1 .. n
   std::vector<double> sh(h.size(), 0.0), shu(h.size(), 0.0);
   auto limit = [&](double dm, double dp, int j) {
-    if (cfg_.scheme == Scheme::Minmod) return minmod(dm, dp);
+    // Beam-Warming only where |h'| <= h (as in step_once, bw_ok); else minmod
+    const auto k = at(j);
+    const double d = u[k] >= 0.0 ? h[k] - h[k - 1] : h[k + 1] - h[k];
+    if (cfg_.scheme == Scheme::Minmod || h[k] <= dry || std::abs(d) > h[k])
+      return minmod(dm, dp);
     return u[at(j)] >= 0.0 ? dm : dp;
   };
   for (int j = -1; j <= n; ++j) {
@@ -684,7 +770,8 @@ void DamSolver::euler_stage(const std::vector<double>& h0, const std::vector<dou
     const auto fs = static_cast<std::size_t>(f);
     const DamBoundary* end = f == 0 ? &left_ : f == n ? &right_ : nullptr;
     if (end && end->type == BoundaryType::Inflow && end->prescribed) {
-      const auto s = end->inflow(t, f == 0 ? x0_ : x1_);
+      const auto e = at(f == 0 ? 0 : n - 1);
+      const auto s = gate_state(*end, f == 0 ? 0 : 1, t, f == 0 ? x0_ : x1_, h[e], hu[e]);
       Hm[fs] = s[0] * s[1];
       Ha[fs] = s[0] * s[1] * s[1];
       P[fs] = 0.5 * s[0] * s[0];

@@ -58,6 +58,85 @@ TEST(DamInflow, InjectedMassIsTheInflowFluxAtEveryStep) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// A subcritical gate that the channel backs up to
+// ---------------------------------------------------------------------------------------------
+// The stability suite's dam_slope_0 (issue 12 item 1): a subcritical gate (h_in = 0.06 m,
+// u_in = 0.37 m/s, Fr = u_in / sqrt(g h_in) = 0.48 with K = 1) on a horizontal bed. Here
+// frictionless shallow water (delta = 0, Isotropic K = 1) in a 0.5 m channel closed by a wall:
+// the front reaches the wall at ~0.3 s, the reflected bore comes back, and from ~1.2 s the
+// channel is backed up to the gate (its end cell deeper than h_in) and fills. With both h_in
+// and u_in imposed the gate kept the momentum flux of the shallow gate state against the deeper
+// interior, the end cell was driven backwards against a face that lets nothing out and ran
+// away (h = 3.1 m, u = -323 m/s by 0.75 s in dam_slope_0). Now the gate keeps the discharge and
+// takes its depth from the interior's outgoing invariant (DamSolver::gate_state). Asserted, to
+// t = 3 s (the channel filled to a mean depth of 2.2 h_in), at every step:
+//  - what enters is q_in t (|in - q_in t| <= 1e-12 q_in t: the face's mass flux is
+//    h_b (q_in / h_b), one rounding per step over ~2000 steps, ~1e-13), in both regimes;
+//  - the ledger closes (|mass - in| <= 1e-12 of the mass: round-off);
+// and at every step after the channel has backed up to the gate (its end cell deeper than
+// h_in; this regime must be reached, else the test tests nothing):
+//  - no wet cell (h > 1e-6 m) faster than u_in: the gate lets in u_b = q_in / h_b < u_in
+//    through h_b > h_in, the wall holds u = 0, and the filling channel between carries a
+//    discharge between q_in and 0 through depths above h_in (measured max 0.35 / 0.29 m/s);
+//    the old gate ran away here;
+//  - the end cell inflowing, 0 <= u_0 <= u_in.
+// Before the back-up the gate imposes the user's state as it always did (unchanged, bit for bit;
+// its front is the one of the verification suite's dam breaks). The same run mirrored (gate at
+// the right end, u_in = -0.37 m/s, wall at the left) must give the mirrored state to 1e-9
+// (relative to h_in and q_in; measured 0: the rule is written in the inflow direction).
+TEST(DamInflow, SubcriticalGateBackedUpByTheWallKeepsItsDischarge) {
+  const double L = 0.5, t_end = 3.0, q_in = kHin * kUin;
+  for (TimeStepping ts : kBothTimeSteppings) {
+    const auto phys = incline(0.0, 0.0, 30.0, EarthPressure::Isotropic);
+    const auto cfg = config(100, Scheme::Minmod, EarthPressure::Isotropic, 0.45, ts);
+    DamSolver dam(0.0, L, cfg, phys, inflow(kHin, kUin), boundary(BoundaryType::Wall));
+    DamSolver mir(0.0, L, cfg, phys, boundary(BoundaryType::Wall), inflow(kHin, -kUin));
+    dam.set_state([](double) { return 0.0; }, [](double) { return 0.0; });
+    mir.set_state([](double) { return 0.0; }, [](double) { return 0.0; });
+    double worst_in = 0.0, worst_ledger = 0.0, umax = 0.0, t_backed = -1.0, u0_min = 1e300,
+           u0_max = -1e300, mirror = 0.0;
+    while (t_end - dam.time() > 1e-12) {
+      const double dt = std::min({dam.stable_dt(), mir.stable_dt(), t_end - dam.time()});
+      dam.step(dt);
+      mir.step(dt);
+      ASSERT_TRUE(dam.check().ok) << name(ts) << " t = " << dam.time();
+      ASSERT_TRUE(mir.check().ok) << name(ts) << " t = " << mir.time();
+      dam.accept();
+      mir.accept();
+      const auto mb = dam.mass_balance();
+      worst_in = std::max(worst_in, std::abs(mb.inflow - q_in * dam.time()) / (q_in * dam.time()));
+      worst_ledger = std::max(worst_ledger, std::abs(mb.current - mb.inflow) / mb.current);
+      const auto& h = dam.h();
+      const auto& hu = dam.hu();
+      const std::size_t n = h.size();
+      for (std::size_t k = 0; k < n; ++k) {
+        if (t_backed >= 0.0 && h[k] > 1e-6) umax = std::max(umax, std::abs(hu[k] / h[k]));
+        mirror = std::max(mirror, std::abs(h[k] - mir.h()[n - 1 - k]) / kHin +
+                                      std::abs(hu[k] + mir.hu()[n - 1 - k]) / q_in);
+      }
+      if (t_backed < 0.0 && h[0] > kHin) t_backed = dam.time();
+      if (t_backed >= 0.0) {
+        u0_min = std::min(u0_min, hu[0] / h[0]);
+        u0_max = std::max(u0_max, hu[0] / h[0]);
+      }
+    }
+    std::printf("[measured] subcritical gate against a wall, flat frictionless bed (%s, N=100, "
+                "%ld steps): backed up from t = %.3f s; max rel |in - q_in t| %.1e, ledger %.1e, "
+                "then max |u| %.3f m/s (bound u_in %.2f), end cell u [%.3f, %.3f] m/s, "
+                "gate depth at %.0f s %.4f m, mirrored run max diff %.1e\n",
+                name(ts), dam.steps(), t_backed, worst_in, worst_ledger, umax, kUin, u0_min,
+                u0_max, t_end, dam.h()[0], mirror);
+    EXPECT_LT(worst_in, 1e-12) << name(ts);
+    EXPECT_LT(worst_ledger, 1e-12) << name(ts);
+    ASSERT_GT(t_backed, 0.0) << name(ts) << ": the channel never backed up to the gate";
+    EXPECT_LT(umax, kUin) << name(ts);
+    EXPECT_GE(u0_min, 0.0) << name(ts);
+    EXPECT_LE(u0_max, kUin) << name(ts);
+    EXPECT_LT(mirror, 1e-9) << name(ts);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
 // A time-dependent inflow: the injected mass converges to the integral of h_in u_in
 // ---------------------------------------------------------------------------------------------
 // h(t) = h_in (1 + 0.5 sin(2 pi t / 0.05)), u(t) = u_in (1 + 0.3 cos(2 pi t / 0.04)) to t = 0.1 s,

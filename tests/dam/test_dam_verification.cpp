@@ -346,16 +346,22 @@ TEST(DamVerification, MassLedgerClosesWithInflowOutflow) {
 // Dam break onto a dry bed (wall behind the reservoir) and a block spreading on a slope, both
 // with Savage-Hutter K. min h >= 0 after every step is exact (no tolerance): the scheme must
 // never leave a negative depth. For Minmod the NT update itself stayed positive (0 fixes
-// measured); Beam-Warming needs the mass-conserving positivity fix at fronts (counted).
+// measured, and now also for Beam-Warming, see below).
 // The spreading front must also stay below the physical bound u0 + 2 sqrt(beta(K(0)) h0) + s t
 // of a block released with uniform u0 (K(0): the earth pressure coefficient at u_x = 0 inside
 // the block; the front itself is spreading, i.e. active, which is smaller). Before the fix of
 // the K switch at wet/dry fronts (src/dam/dam_solver.cpp, wet_ux) dry cells counted as u = 0,
 // the spreading front was taken as passive and the tip ran at 4.97 m/s > bound 3.79 m/s (dam
-// break: 5.11 > 4.27 m/s); after the fix 2.90 and 3.34 m/s. The bound is asserted for Minmod only: Beam-Warming is
-// the paper's variant for smooth supercritical flow, not for fronts, and its unlimited slopes
-// leave thin cells (h ~ 1e-6 .. 1e-5 m) at the front with velocities of 10-20 m/s (measured;
-// this only shortens dt).
+// break: 5.11 > 4.27 m/s); after the fix 2.90 and 3.34 m/s. Beam-Warming, the paper's variant
+// for smooth supercritical flow, took its unlimited upwind slope also where the depth falls
+// steeply to a front (up to 10 times the cell's depth) and in the dry cells ahead of it: its
+// fronts needed 692-1960 positivity fixes here and left thin cells running at 28 m/s (spreading
+// block, staggered) and 76 / 14.5 m/s (semi-discrete), and the coupled Setup II's 1D tip ran at
+// 9-15 m/s (docs/validation.md, "Stability suite"). Now it takes the minmod slope where
+// |h'| > h or the cell is dry (dam_solver.cpp, bw_ok): 0 fixes in all eight runs (asserted), the
+// staggered fronts 3.75 / 3.36 m/s, below their bounds (asserted, as for Minmod); the
+// semi-discrete Beam-Warming fronts 4.71 / 4.16 m/s, 10 % above them (not asserted: its face
+// reconstruction of a front cell still has the unlimited slope where |h'| <= h).
 TEST(DamVerification, PositivityAtFronts) {
   for (TimeStepping ts : kBothTimeSteppings)
   for (Scheme scheme : {Scheme::Minmod, Scheme::BeamWarming}) {
@@ -384,8 +390,8 @@ TEST(DamVerification, PositivityAtFronts) {
                   name(ts), name(scheme), which == 0 ? "dam break on dry bed" : "spreading block",
                   dam.steps(), hmin, dam.positivity_fixes(), umax, bound);
       EXPECT_GE(hmin, 0.0);
-      if (scheme == Scheme::Minmod) {
-        EXPECT_EQ(dam.positivity_fixes(), 0);
+      EXPECT_EQ(dam.positivity_fixes(), 0);
+      if (scheme == Scheme::Minmod || ts == TimeStepping::Staggered) {
         EXPECT_LT(umax, bound);
       }
     }

@@ -190,6 +190,12 @@ class DamSolver final : public core::Stepper {
   struct Work;                 // padded arrays of one step
   void fill_ghosts(std::vector<double>& h, std::vector<double>& hu, int n, bool on_b,
                    double t) const;
+  /// The state {h, u} on the end face of a prescribed inflow (side 0 left, 1 right) at time t,
+  /// given the state of the end cell inside the channel: the user's (h_in, u_in) while it is
+  /// compatible with the characteristic that leaves the channel there, otherwise the state that
+  /// keeps the prescribed discharge (see the definition).
+  std::array<double, 2> gate_state(const DamBoundary& b, int side, double t, double x,
+                                   double h_end, double hu_end) const;
   bool wall_centred(int j, int n, bool on_b) const;
   /// +1 / -1 if cell j of a primary grid of n cells touches a right / left Wall, else 0.
   int wall_side(int j, int n) const;
