@@ -537,8 +537,14 @@ void DamSolver::step_once(double dt) {
   };
   auto limit = [&](double dm, double dp, int j) {
     if (wall_centred(j, n, on_b)) return 0.5 * (dm + dp);  // symmetric about the wall
-    if (cfg_.scheme == Scheme::Minmod || !bw_ok(j)) return minmod(dm, dp);
-    return u[at(j)] >= 0.0 ? dm : dp;  // Beam-Warming: one-sided upwind difference
+    // Beam-Warming: the one-sided difference upwind of the cell's velocity. A cell at rest
+    // (u = 0 exactly: held by friction, or dry) has no upwind side; it takes the minmod slope,
+    // which is odd under a wall's mirror (h even, hu odd) as the end terms need. With
+    // "u >= 0" a deposit at rest against a wall and its mirrored ghost (u = -0) both took the
+    // backward difference, and dx (s_c + s_d) / 16 left through the wall every step (Setup II
+    // in the DAM at 10 mm: 7.8 % of the inflow by t = 1 s).
+    if (cfg_.scheme == Scheme::Minmod || !bw_ok(j) || u[at(j)] == 0.0) return minmod(dm, dp);
+    return u[at(j)] > 0.0 ? dm : dp;
   };
   auto slope = [&](const std::vector<double>& v, int j) {
     return limit(v[at(j)] - v[at(j - 1)], v[at(j + 1)] - v[at(j)], j);
@@ -752,9 +758,9 @@ void DamSolver::euler_stage(const std::vector<double>& h0, const std::vector<dou
     // Beam-Warming only where |h'| <= h (as in step_once, bw_ok); else minmod
     const auto k = at(j);
     const double d = u[k] >= 0.0 ? h[k] - h[k - 1] : h[k + 1] - h[k];
-    if (cfg_.scheme == Scheme::Minmod || h[k] <= dry || std::abs(d) > h[k])
-      return minmod(dm, dp);
-    return u[at(j)] >= 0.0 ? dm : dp;
+    if (cfg_.scheme == Scheme::Minmod || h[k] <= dry || std::abs(d) > h[k] || u[k] == 0.0)
+      return minmod(dm, dp);  // at rest (u = 0): no upwind side, as in step_once
+    return u[at(j)] > 0.0 ? dm : dp;
   };
   for (int j = -1; j <= n; ++j) {
     const auto k = at(j);
