@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include <mpi.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -419,6 +420,18 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   const double wall = std::chrono::duration<double>(Clock::now() - wall0_).count();
   s["wall_time"] = {{"total", wall}};
   for (const auto& [k, v] : phase_seconds_) s["wall_time"][k] = v;
+  // CPU time of this process (rank 0; user + system): on a shared machine the wall time of a
+  // run grows with the other jobs, its CPU time much less, so comparisons of methods
+  // (compare_layouts.py, pareto.py) can use it
+  {
+    rusage ru{};
+    getrusage(RUSAGE_SELF, &ru);
+    const double user = ru.ru_utime.tv_sec + 1e-6 * ru.ru_utime.tv_usec;
+    const double sys = ru.ru_stime.tv_sec + 1e-6 * ru.ru_stime.tv_usec;
+    s["cpu_time"] = {{"process_seconds", user + sys}, {"user", user}, {"system", sys},
+                     {"note", "rank 0, this process (a restart starts again from 0), including "
+                              "the set-up before the time loop"}};
+  }
   const auto m = model_->mass_balance();
   s["mass_balance"] = {{"unit", "m^2 (per unit channel width)"},
                        {"initial", m.initial},

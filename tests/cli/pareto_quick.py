@@ -36,6 +36,9 @@ for r in rows:
     s = json.load(open(r["summary"]))
     if abs(float(r["wall_seconds"]) - s["wall_time"]["total"]) > 1e-9 or int(r["steps"]) != s["steps"]:
         bad.append(f"{r['method']} {r['cell_mm']}: wall time / steps differ from its summary.json")
+    cpu = s.get("cpu_time", {}).get("process_seconds")
+    if cpu is None or abs(float(r["cpu_seconds"]) - cpu) > 1e-9 or not cpu > 0.0:
+        bad.append(f"{r['method']} {r['cell_mm']}: CPU time missing or differs from its summary.json")
     for k in ("h_L2", "u_L2", "h_max", "u_max"):
         if not math.isfinite(float(r[k])):
             bad.append(f"{r['method']} {r['cell_mm']}: {k} not finite")
