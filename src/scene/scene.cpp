@@ -18,6 +18,7 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <iostream>
 #include <memory>
 #include <sstream>
 
@@ -34,6 +35,12 @@ const std::vector<std::string>& model_names() {
 }
 
 namespace {
+
+bool io_rank0(MPI_Comm comm) {
+  int rank = 0;
+  MPI_Comm_rank(comm, &rank);
+  return rank == 0;
+}
 
 // A coupled scene's initial material comes from two lists: 'Initial condition' fills the 1D
 // subdomains, 'N-DAM->Initial depth' (on [Initial x0, Initial x1)) the 2D ones. Material that
@@ -268,24 +275,30 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
       two_d.rheology =
           ndam::Rheology::from_parameters(p.sublist("Rheology"), user_sub("Rheology"), material);
       two_d.physics = ndam::NdamPhysics::from(material, channel);
-      auto coupled = coupling::build(d, material, channel, cfg, init, &two_d);
-      if (dynamic) {
-        auto dm = std::make_unique<coupling::DomainManager>(d, coupled->factory());
-        // The manager moves interfaces by whole slots, between nodes common to both grids; a
-        // user's initial interface elsewhere would be moved at the first check (or, within
-        // round-off of a node, kept off it, and the later conversion would miss the sliver).
-        const double w = dm->slot_width();
-        const auto& pd = p.sublist("Decomposition");
-        if (d.initial_layout == "Static")
-          for (double x : d.interfaces)
-            if (std::abs(x / w - std::round(x / w)) > 1e-9)
-              params::fail(pd, "Interfaces", params::str(x),
-                           "with Layout = Dynamic every interface must lie on a node common to "
-                           "the 2D columns and the 1D cells, a multiple of " + params::str(w) +
-                               " m (nearest: " + params::str(std::floor(x / w) * w) + " or " +
-                               params::str(std::ceil(x / w) * w) + ")");
-        coupled->set_domain_manager(std::move(dm));
+      if (dynamic && d.initial_layout == "Static") {
+        // The manager moves interfaces by whole slots, between nodes common to both grids (the
+        // slot is the coarser of a 2D column and a 1D cell, DomainManager). An initial interface
+        // elsewhere (0.2 m on 769 columns per metre) starts on the nearest node, said on stderr:
+        // kept off it, the first check would move it, or within round-off of a node keep it
+        // there and a later conversion would miss the sliver.
+        const double w = std::max(channel.length / cfg.cells, two_d.cfg.grid.dx());
+        for (double& x : d.interfaces) {
+          const double on = std::round(x / w) * w;
+          if (std::abs(x - on) > 1e-12 * std::max(1.0, channel.length)) {
+            if (io_rank0(comm))
+              std::cerr << "granflow: note: parameter 'granflow->Decomposition->Interfaces' = "
+                        << params::str(x) << " lies between the nodes common to the 2D columns "
+                        << "and the 1D cells (multiples of " << params::str(w)
+                        << " m); the Dynamic layout starts from the nearest, " << params::str(on)
+                        << " m\n";
+            x = on;
+          }
+        }
       }
+      auto coupled = coupling::build(d, material, channel, cfg, init, &two_d);
+      if (dynamic)
+        coupled->set_domain_manager(
+            std::make_unique<coupling::DomainManager>(d, coupled->factory()));
       return coupled;
     }
     if (s.model == "DAM") {
