@@ -176,6 +176,17 @@ struct SetupTwoProbe {
   double wall_part_x0 = 1.0;  // upstream end of the 2D part at the wall at the end [m]
 };
 
+// Setup II (wall at 1 m) with the dynamic layout from `models` / `interfaces`, to `end` s.
+Chute setup_two_dynamic(const std::string& name, const std::string& models,
+                        const std::string& interfaces, double end) {
+  Chute dy = dynamic(name, param("Hold time", "double", "0.02"));
+  dy.models = models;
+  dy.interfaces = interfaces;
+  dy.wall = true;
+  dy.end_time = end;
+  return dy;
+}
+
 SetupTwoProbe probe_setup_two(Chute dy) {
   SetupTwoProbe r;
   auto b = dy.build();
@@ -236,10 +247,7 @@ SetupTwoProbe probe_setup_two(Chute dy) {
 // upstream columns (before the impact the calm supercritical layer there would otherwise go back
 // to 1D, and the front would meet the wall through an interface a few cm upstream of it).
 TEST(DomainManager, SetupTwoShockStaysInsideTwoD) {
-  Chute dy = dynamic("dm_setup2", param("Hold time", "double", "0.02"));
-  dy.wall = true;
-  dy.end_time = 0.75;
-  const auto r = probe_setup_two(dy);
+  const auto r = probe_setup_two(setup_two_dynamic("dm_setup2", "2D, 1D, 2D", "0.2, 0.7", 0.75));
   EXPECT_GT(r.shock_steps, 50);  // the wall was hit and the shock travelled
   EXPECT_EQ(r.shock_in_1d, 0);
   EXPECT_EQ(r.uncovered, 0);
@@ -252,12 +260,7 @@ TEST(DomainManager, SetupTwoShockStaysInsideTwoD) {
 // the wall when the material stops there and grow it upstream ahead of the shock, check after
 // check: many moves, each conserving mass to round-off.
 TEST(DomainManager, SetupTwoWallPartCreatedAndGrownConservesMass) {
-  Chute dy = dynamic("dm_setup2_created", param("Hold time", "double", "0.02"));
-  dy.models = "2D, 1D";
-  dy.interfaces = "0.2";
-  dy.wall = true;
-  dy.end_time = 1.0;
-  const auto r = probe_setup_two(dy);
+  const auto r = probe_setup_two(setup_two_dynamic("dm_setup2_created", "2D, 1D", "0.2", 1.0));
   EXPECT_GE(r.moves, 10);
   // a move only re-sorts the same mass into other cells and markers: round-off of the sums over
   // ~10^3 cells of ~1e-5 m^2 each
@@ -285,11 +288,7 @@ TEST(DomainManager, SetupTwoWallPartCreatedAndGrownConservesMass) {
 // mass goes into the DAM cell just downstream of the old interface: every move conserves mass to
 // round-off (found by an independent run: -1.3e-5 m^2 lost in one move before).
 TEST(DomainManager, RemovedPartGivesItsPendingInflowToTheDam) {
-  Chute dy = dynamic("dm_five", param("Hold time", "double", "0.02"));
-  dy.models = "2D, 1D, 2D, 1D, 2D";
-  dy.interfaces = "0.2, 0.4, 0.6, 0.8";
-  dy.wall = true;
-  dy.end_time = 1.0;
+  const Chute dy = setup_two_dynamic("dm_five", "2D, 1D, 2D, 1D, 2D", "0.2, 0.4, 0.6, 0.8", 1.0);
   auto b = dy.build();
   b->adapt();
   run_adaptive(*b, dy.end_time);
