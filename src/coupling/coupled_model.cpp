@@ -394,16 +394,33 @@ void CoupledModel::write_fields(io::FieldWriter& w) const {
   const int n1 = static_cast<int>(std::lround(L / dx1));
   std::vector<double> xn(static_cast<std::size_t>(n1 + 1)), h, u, hu, model;
   for (int j = 0; j <= n1; ++j) xn[static_cast<std::size_t>(j)] = j == n1 ? L : j * dx1;
+  // In a 1D part the cells are the DAM's own on the primary grid, the values those of its
+  // profile (DamSolver::primary, as profiles.csv; the staggered grid's cells would be half a
+  // cell off every other step); in a 2D part the columns' averages (h of the markers, eq. 21).
+  std::vector<core::Profile> prof(parts_.size());
+  for (std::size_t p = 0; p < parts_.size(); ++p)
+    if (parts_[p].one_d()) prof[p] = parts_[p].model->profile();
   for (int j = 0; j < n1; ++j) {
     const double a = xn[static_cast<std::size_t>(j)], b = xn[static_cast<std::size_t>(j + 1)];
-    const auto v = f.average(a, b);
-    h.push_back(v[0]);
-    hu.push_back(v[1]);
-    u.push_back(v[0] > 0.0 ? v[1] / v[0] : 0.0);
     const double xc = 0.5 * (a + b);
     std::size_t p = 0;
     while (p + 1 < parts_.size() && xc > parts_[p].x1) ++p;
     model.push_back(parts_[p].one_d() ? 1.0 : 2.0);
+    const auto& q = prof[p];
+    if (parts_[p].one_d() && !q.x.empty()) {
+      const double dxp = (parts_[p].x1 - parts_[p].x0) / static_cast<double>(q.x.size());
+      const auto i = static_cast<std::size_t>(std::clamp(
+          static_cast<int>(std::floor((xc - parts_[p].x0) / dxp)), 0,
+          static_cast<int>(q.x.size()) - 1));
+      h.push_back(q.h[i]);
+      u.push_back(q.u_mean[i]);
+      hu.push_back(q.h[i] * q.u_mean[i]);
+      continue;
+    }
+    const auto v = f.average(a, b);
+    h.push_back(v[0]);
+    hu.push_back(v[1]);
+    u.push_back(v[0] > 0.0 ? v[1] / v[0] : 0.0);
   }
   // drawn as a strip 1 cm deep under the bed, so that ParaView shows it beside the 2D box
   auto& m1 = w.add_mesh("dam", std::move(xn), {-0.01, 0.0});
