@@ -115,7 +115,13 @@ def run_variant(build, family, variant, args, outdir):
     print(f"{variant:8s} exit {p.returncode} in {time.time() - t0:.1f} s", flush=True)
     if p.returncode != 0:
         print(p.stdout[-2000:])
-        raise SystemExit(f"compare_layouts: the {variant} run failed")
+        if variant in ("full", "dynamic"):  # the reference and the ideal saving need both
+            raise SystemExit(f"compare_layouts: the {variant} run failed")
+        # another layout that stops (exit 3, e.g. the static lab chute once the shock is in its
+        # 1D part) is a result: reported, and left out of the tables
+        print(f"compare_layouts: the {variant} run stopped (exit {p.returncode}); left out",
+              flush=True)
+        return None
     return d
 
 
@@ -202,6 +208,9 @@ def main():
     build = os.path.abspath(args.build)
     L = FAMILIES[args.family]["length"]
     dirs = {v: run_variant(build, args.family, v, args, args.outdir) for v in variants}
+    failed = [v for v, d in dirs.items() if d is None]
+    variants = [v for v in variants if v not in failed]
+    dirs = {v: d for v, d in dirs.items() if d is not None}
     prof = {v: profiles(d) for v, d in dirs.items()}
     summ = {v: json.load(open(os.path.join(d, "summary.json"))) for v, d in dirs.items()}
     times = sorted(prof["full"])
@@ -265,6 +274,9 @@ def main():
            f"averaged over the outputs): {100 * ideal:.1f} %; achieved (1 - {cost_name} dynamic / "
            f"full): {100 * achieved:.1f} %; achieved / ideal: "
            f"{(achieved / ideal if ideal > 0 else float('nan')):.2f}.", ""]
+    for v in failed:
+        md.append(f"The {v} run stopped before the end (see OUTDIR/{v}/summary.json); it is not "
+                  f"in the tables.")
     open(os.path.join(args.outdir, "comparison.md"), "w").write("\n".join(md) + "\n")
     print("\n".join(md))
 
