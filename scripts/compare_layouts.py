@@ -94,20 +94,23 @@ def variant_xml(family, variant, args, outdir):
     return text, d
 
 
+def reusable(build, scene, text, summary):
+    """A run of `text` already made by BUILD's granflow: the same scene, a summary that says it
+    completed and is newer than the binary (an older one is another build's)."""
+    exe = os.path.join(build, "apps", "granflow")
+    return (os.path.exists(summary) and os.path.exists(scene) and open(scene).read() == text
+            and os.path.getmtime(summary) >= os.path.getmtime(exe)
+            and json.load(open(summary)).get("status") == "completed")
+
+
 def run_variant(build, family, variant, args, outdir):
     text, d = variant_xml(family, variant, args, outdir)
     os.makedirs(outdir, exist_ok=True)
     scene = os.path.join(outdir, variant + ".xml")
     summary = os.path.join(d, "summary.json")
-    exe = os.path.join(build, "apps", "granflow")
-    # reused only when made by this build: a summary older than the binary is from another one
-    if (not args.rerun and os.path.exists(summary) and os.path.exists(scene)
-            and open(scene).read() == text
-            and os.path.getmtime(summary) >= os.path.getmtime(exe)):
-        s = json.load(open(summary))
-        if s.get("status") == "completed":
-            print(f"{variant:8s} reused {d}", flush=True)
-            return d
+    if not args.rerun and reusable(build, scene, text, summary):
+        print(f"{variant:8s} reused {d}", flush=True)
+        return d
     open(scene, "w").write(text)
     t0 = time.time()
     p = subprocess.run([os.path.join(build, "apps", "granflow"), "--overwrite", scene],

@@ -103,12 +103,7 @@ def run(build, family, method, cell, args):
     text = scene_text(family, method, cell, args, d)
     scene = os.path.join(args.outdir, name + ".xml")
     summary = os.path.join(d, "summary.json")
-    exe = os.path.join(build, "apps", "granflow")
-    # reused only when made by this build: a summary older than the binary is from another one
-    if (not args.rerun and os.path.exists(summary) and os.path.exists(scene)
-            and open(scene).read() == text
-            and os.path.getmtime(summary) >= os.path.getmtime(exe)
-            and json.load(open(summary)).get("status") == "completed"):
+    if not args.rerun and cl.reusable(build, scene, text, summary):
         print(f"{name:22s} reused", flush=True)
         return d
     os.makedirs(args.outdir, exist_ok=True)

@@ -51,7 +51,7 @@ DomainManager::DomainManager(const Decomposition& d,
     : d_(d), factory_(std::move(factory)) {
   const double L = factory_->length(), dx1 = factory_->dx_1d();
   const double dx2 = factory_->has_2d() ? factory_->dx_2d() : dx1;
-  slot_ = std::max(dx1, dx2);
+  slot_ = slot_width(dx1, dx2);
   const double ratio = slot_ / std::min(dx1, dx2);
   if (std::abs(ratio - std::round(ratio)) > 1e-6)
     throw params::InputError(
@@ -129,11 +129,13 @@ std::vector<Piece> DomainManager::target(const CoupledModel& model) {
               std::abs(slots_[static_cast<std::size_t>(s + 1)].u_mean) <
                   0.5 * std::abs(slots_[static_cast<std::size_t>(s - 1)].u_mean);
   }
-  std::vector<char> need(slots_.size(), 0), want(slots_.size(), 0);
+  std::vector<char> need(slots_.size(), 0), want(slots_.size(), 0), rest(slots_.size(), 0);
   for (int s = 0; s < nslots_; ++s) {
     SlotState& q = slots_[static_cast<std::size_t>(s)];
-    const bool rest = wet[static_cast<std::size_t>(s)] && std::abs(q.u_mean) < d_.rest_speed;
-    q.needs_2d = wet[static_cast<std::size_t>(s)] && (q.eps >= d_.eps_threshold || rest || q.shock);
+    rest[static_cast<std::size_t>(s)] =
+        wet[static_cast<std::size_t>(s)] && std::abs(q.u_mean) < d_.rest_speed;
+    q.needs_2d = wet[static_cast<std::size_t>(s)] &&
+                 (q.eps >= d_.eps_threshold || rest[static_cast<std::size_t>(s)] || q.shock);
     need[static_cast<std::size_t>(s)] = q.needs_2d;
     want[static_cast<std::size_t>(s)] = q.two_d;
   }
@@ -177,9 +179,7 @@ std::vector<Piece> DomainManager::target(const CoupledModel& model) {
   for (const Run& r : runs(want)) {
     if (!r.two_d) continue;
     bool anchored = (wall_left && r.s0 == 0) || (wall_right && r.s1 == nslots_);
-    for (int q = r.s0; q < r.s1 && !anchored; ++q)
-      anchored = wet[static_cast<std::size_t>(q)] &&
-                 std::abs(slots_[static_cast<std::size_t>(q)].u_mean) < d_.rest_speed;
+    for (int q = r.s0; q < r.s1 && !anchored; ++q) anchored = rest[static_cast<std::size_t>(q)];
     bool all = !anchored;  // a subdomain calm all over goes as a whole
     for (int q = r.s0; q < r.s1 && all; ++q) all = releasable(q);
     if (all) {

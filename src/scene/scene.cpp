@@ -281,7 +281,8 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
         // elsewhere (0.2 m on 769 columns per metre) starts on the nearest node, said on stderr:
         // kept off it, the first check would move it, or within round-off of a node keep it
         // there and a later conversion would miss the sliver.
-        const double w = std::max(channel.length / cfg.cells, two_d.cfg.grid.dx());
+        const double w =
+            coupling::DomainManager::slot_width(channel.length / cfg.cells, two_d.cfg.grid.dx());
         for (double& x : d.interfaces) {
           const double on = std::round(x / w) * w;
           if (std::abs(x - on) > 1e-12 * std::max(1.0, channel.length)) {

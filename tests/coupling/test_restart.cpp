@@ -26,15 +26,36 @@ struct Divergence {
 
 // Runs `straight` to t1, checkpoints it into a new model of the same scene, then steps both
 // `steps` times with the straight run's dt and compares h and u_mean after every step.
+// The driver's loop to t1: step, check, accept, then the layout may change.
+void run_to(core::Stepper& s, double t1) {
+  while (s.time() < t1 - 1e-12) {
+    s.step(std::min(s.stable_dt(), t1 - s.time()));
+    EXPECT_TRUE(s.check().ok);
+    s.accept();
+    s.adapt();
+  }
+}
+
+// The coupled Setup II chute with the dynamic layout (Hold time 0.02 s) from `models` /
+// `interfaces`.
+Chute dynamic_chute(const std::string& name, const std::string& models,
+                    const std::string& interfaces) {
+  Chute c;
+  c.name = name;
+  c.wall = true;
+  c.layout = "Dynamic";
+  c.models = models;
+  c.interfaces = interfaces;
+  c.decomposition_extra =
+      R"x(
+    <Parameter name="Hold time" type="double" value="0.02"/>)x";
+  return c;
+}
+
 Divergence restart_and_compare(const Chute& c, double t1, int steps, bool through_file = false) {
   auto straight = c.build();
   straight->adapt();
-  while (straight->time() < t1 - 1e-12) {
-    straight->step(std::min(straight->stable_dt(), t1 - straight->time()));
-    EXPECT_TRUE(straight->check().ok);
-    straight->accept();
-    straight->adapt();
-  }
+  run_to(*straight, t1);
   io::Checkpoint ck;
   straight->save(ck);
   if (through_file) {  // as the app does: checkpoint.h5 written and read back
@@ -107,13 +128,7 @@ TEST(Restart, CoupledStaticLayoutContinuesBitForBit) {
 }
 
 TEST(Restart, DynamicLayoutContinuesBitForBit) {
-  Chute c;
-  c.name = "rs_dynamic";
-  c.wall = true;
-  c.layout = "Dynamic";
-  c.decomposition_extra =
-      R"x(
-    <Parameter name="Hold time" type="double" value="0.02"/>)x";
+  const Chute c = dynamic_chute("rs_dynamic", "2D, 1D, 2D", "0.2, 0.7");
   // after the impact, with a layout the manager has changed (the restarted model is built from
   // the scene's initial layout and takes the checkpoint's), and moves still to come
   const auto d = restart_and_compare(c, 0.62, 150);
@@ -128,15 +143,7 @@ TEST(Restart, DynamicLayoutContinuesBitForBit) {
 // conversion built (found by an independent run through the app: every output after the
 // restart differed, by up to 16 mm in h).
 TEST(Restart, DynamicLayoutWithACreatedPartContinuesBitForBit) {
-  Chute c;
-  c.name = "rs_dynamic_created";
-  c.wall = true;
-  c.layout = "Dynamic";
-  c.models = "2D, 1D";
-  c.interfaces = "0.3";
-  c.decomposition_extra =
-      R"x(
-    <Parameter name="Hold time" type="double" value="0.02"/>)x";
+  const Chute c = dynamic_chute("rs_dynamic_created", "2D, 1D", "0.3");
   const auto d = restart_and_compare(c, 0.6, 150, true);
   std::printf("[measured] dynamic restart at 0.6 s after a created part: first differing step "
               "%d, max |dh| %.3e m, max |du| %.3e m/s over 150 steps\n", d.first_step, d.dh, d.du);
@@ -152,11 +159,7 @@ TEST(FieldOutput, OneDColumnsShowTheProfile) {
   c.name = "fields_profile";
   c.wall = true;
   auto m = c.build();
-  while (m->time() < 0.3 - 1e-12) {
-    m->step(std::min(m->stable_dt(), 0.3 - m->time()));
-    ASSERT_TRUE(m->check().ok);
-    m->accept();
-  }
+  run_to(*m, 0.3);
   for (int n = 0; n < 2; ++n) {  // two consecutive steps: both phases of the DAM's grid
     m->step(m->stable_dt());
     ASSERT_TRUE(m->check().ok);

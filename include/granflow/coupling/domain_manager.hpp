@@ -34,6 +34,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include <algorithm>
 #include <memory>
 #include <string>
 #include <vector>
@@ -65,6 +66,9 @@ class DomainManager {
   };
   const std::vector<SlotState>& last_check() const { return slots_; }
   double slot_width() const { return slot_; }
+  /// The slot of grids with 1D cells of dx_1d and 2D columns of dx_2d: the coarser of the two
+  /// (interfaces lie on its nodes, common to both grids).
+  static double slot_width(double dx_1d, double dx_2d) { return std::max(dx_1d, dx_2d); }
   long moves() const { return static_cast<long>(log_.size()); }
   long checks() const { return checks_; }
 
