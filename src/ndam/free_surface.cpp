@@ -154,10 +154,22 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
   const bool per = cfg_.periodic_x();
   auto inside = [&](int gi) { return per || (gi >= 0 && gi < nx); };
+  // The highest material cell of each column [-2, nxl + 1] (-1: none, and beyond a wall).
+  // Above it every rule below is the upward copy, done without looking at flags: most of the
+  // box is empty, and this function runs several times per step (10 % of a run before).
+  std::vector<int> top_of(static_cast<std::size_t>(nxl + 4), -1);
+  for (int i = -2; i <= nxl + 1; ++i) {
+    const int gi = mac_.slab.i0 + i;
+    if (!inside(gi)) continue;
+    int k = nz - 1;
+    while (k >= 0 && !mac_.fluid(gi, k)) --k;
+    top_of[static_cast<std::size_t>(i + 2)] = k;
+  }
+  auto top = [&](int i) { return top_of[static_cast<std::size_t>(i + 2)]; };
   for (int i = -1; i <= nxl; ++i) {
     const int gi = mac_.slab.i0 + i;
     if (!inside(gi)) continue;
-    for (int k = 0; k < nz; ++k) {
+    for (int k = 0; k <= top(i); ++k) {  // a Surface cell is a material cell
       if (mac_.gflag(gi, k) != CellFlag::Surface) continue;
       const std::uint8_t m = mac_.mask(gi, k);
       double* face[4] = {&u(i - 1, k), &u(i, k), &w(i, k - 1), &w(i, k)};  // L R B T
@@ -178,11 +190,16 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
         if (m & bit[q]) *face[q] -= sgn[q] * div * hh[q] / ne;
     }
   }
-  // 2. extrapolation into the Empty region
+  // 2. extrapolation into the Empty region (above the columns' material: the upward copy)
   for (int i = -1; i <= nxl; ++i) {
     const int gi = mac_.slab.i0 + i;
     if (!per && (gi < 0 || gi >= nx - 1)) continue;  // u: the boundary faces are set elsewhere
+    const int kt = std::max(top(i), top(i + 1)) + 1;  // from here up: no material either side
     for (int k = 0; k < nz; ++k) {
+      if (k > kt && k > 0) {
+        u(i, k) = u(i, k - 1);
+        continue;
+      }
       if (mac_.fluid(gi, k) || mac_.fluid(gi + 1, k)) continue;
       if (k > 0) u(i, k) = u(i, k - 1);
       else u(i, k) = (mac_.fluid(gi - 1, k) || mac_.fluid(gi, k)) ? u(i - 1, k) : 0.0;
@@ -191,7 +208,12 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
   for (int i = -1; i <= nxl; ++i) {
     const int gi = mac_.slab.i0 + i;
     if (!inside(gi)) continue;
+    const int kt = std::max({top(i - 1), top(i), top(i + 1)});  // above: no material around
     for (int k = 0; k < nz - 1; ++k) {
+      if (k > kt && k > 0) {
+        w(i, k) = w(i, k - 1);
+        continue;
+      }
       if (mac_.fluid(gi, k) || mac_.fluid(gi, k + 1)) continue;
       if (mac_.fluid(gi - 1, k) || mac_.fluid(gi - 1, k + 1)) w(i, k) = w(i - 1, k);
       else if (mac_.fluid(gi + 1, k) || mac_.fluid(gi + 1, k + 1)) w(i, k) = w(i + 1, k);

@@ -35,6 +35,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <stdexcept>
@@ -100,6 +101,23 @@ struct LinearSystem::Impl {
   std::vector<std::vector<std::pair<GO, SC>>> rows;
   std::vector<size_t> row_start;  // pattern of the current matrix (CSR offsets, columns)
   std::vector<GO> pattern;
+  std::vector<size_t> value_slot;  // where each entry of the pattern sits in Tpetra's values
+  // Emission record of the last full assembly (repeat_values): per local row the columns in
+  // the order they were added, the sorted order of those entries, the merged entry each one
+  // is summed into (and whether it is the first of its sum), whether the row is a single
+  // diagonal entry (2: no; 1: nonzero; 0: zero), the merged CSR offsets before compression
+  // (pre_start), and per merged entry its place in Tpetra's values (-1: a trivial row).
+  bool rec_valid = false;
+  std::string rec_type;
+  std::vector<size_t> rec_start;
+  std::vector<GO> rec_cols;
+  std::vector<std::uint32_t> rec_order;
+  std::vector<size_t> rec_merged;
+  std::vector<char> rec_first, rec_single;
+  std::vector<size_t> pre_start;
+  std::vector<long long> pre_dest;
+  bool repeat_values(const std::string& type, std::vector<SC>& pre) const;
+  void update_staleness();
   RCP<Matrix> A;
   RCP<OP> prec;
   bool prec_stale = true;
@@ -306,37 +324,122 @@ void LinearSystem::Impl::compress_rows(std::vector<size_t>& start, std::vector<G
   rglobal = total;
 }
 
+// The emission record of the last full assembly (Impl::record): when the next assembly adds
+// the same (row, col) sequence, its values go straight to their places: no sorting, no
+// compression, no pattern comparison. Returns false (and leaves everything unchanged) if the
+// sequence or the preconditioner type differs, or if a single-diagonal row's value changed
+// between zero and nonzero (that decides whether the row is trivial). Not collective.
+bool LinearSystem::Impl::repeat_values(const std::string& type, std::vector<SC>& pre) const {
+  if (!rec_valid || A.is_null() || type != rec_type) return false;
+  const size_t n = static_cast<size_t>(nlocal);
+  for (size_t i = 0; i < n; ++i) {
+    const auto& r = rows[i];
+    const size_t b = rec_start[i];
+    if (r.size() != rec_start[i + 1] - b) return false;
+    for (size_t j = 0; j < r.size(); ++j)
+      if (r[j].first != rec_cols[b + j]) return false;
+  }
+  pre.assign(pre_start.back(), 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    const auto& r = rows[i];
+    const size_t b = rec_start[i];
+    // the summation order of the full path: the sorted order, duplicates summed in it
+    for (size_t j = 0; j < r.size(); ++j) {
+      const size_t d = rec_merged[b + j];
+      const double v = r[rec_order[b + j]].second;
+      if (rec_first[b + j]) pre[d] = v;
+      else pre[d] += v;
+    }
+    if (rec_single[i] != 2 && (pre[pre_start[i]] != 0.0) != (rec_single[i] == 1)) return false;
+  }
+  return true;
+}
+
 // Rows are sorted and duplicates summed. When the sparsity pattern is the one of the previous
 // matrix (the usual case: only nu_eff or dt changed) the new matrix shares Tpetra's graph, and
-// a lagged preconditioner may be reused.
+// a lagged preconditioner may be reused. Measured (docs/validation.md, "Speed"): assembly was a
+// quarter of Setup II's full 2D run at 1.3 mm; half of the assemblies (the momentum re-solves
+// of the Coulomb friction) repeat the last one's sequence and take the repeat path.
 void LinearSystem::end() {
   auto& m = *impl_;
-  std::vector<size_t> start(static_cast<size_t>(m.nlocal) + 1, 0);
-  std::vector<GO> cols;
-  std::vector<SC> vals;
-  for (LO i = 0; i < m.nlocal; ++i) {
-    auto& r = m.rows[static_cast<size_t>(i)];
-    std::sort(r.begin(), r.end(),
-              [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (size_t q = 0; q < r.size(); ++q) {
-      if (q > 0 && r[q].first == cols.back() && start[static_cast<size_t>(i)] < cols.size()) {
-        vals.back() += r[q].second;
-      } else {
-        cols.push_back(r[q].first);
-        vals.push_back(r[q].second);
-      }
-    }
-    start[static_cast<size_t>(i) + 1] = cols.size();
-  }
-  const std::vector<LO> old_kept = m.kept;
-  const GO old_rfirst = m.rfirst;
   // The preconditioner of this matrix (the switch, if the list has one), and with it the
   // blocks of the Krylov system: MueLu's equations per node are kept whole, the one-level
   // preconditioners get exactly the coupled rows. The stiffness is the same on every rank.
-  m.prec_type = m.params.isParameter("Stiff preconditioner") &&
-                        m.stiffness >= m.params.get<double>("Stiff threshold")
-                    ? m.params.get<std::string>("Stiff preconditioner")
-                    : m.params.get<std::string>("Preconditioner");
+  const std::string type = m.params.isParameter("Stiff preconditioner") &&
+                                   m.stiffness >= m.params.get<double>("Stiff threshold")
+                               ? m.params.get<std::string>("Stiff preconditioner")
+                               : m.params.get<std::string>("Preconditioner");
+  {
+    std::vector<SC> pre;
+    const int repeat_local = m.repeat_values(type, pre) ? 1 : 0;
+    int repeat_all = 0;
+    Teuchos::reduceAll<int, int>(*m.comm, Teuchos::REDUCE_MIN, repeat_local,
+                                 Teuchos::outArg(repeat_all));
+    if (repeat_all == 1) {
+      // the same pattern, kept rows and trivial rows: new values on the old graph (the old
+      // matrix stays intact for a lagged preconditioner that still refers to it)
+      for (size_t i = 0; i < m.trivial_diag.size(); ++i)
+        if (m.trivial_diag[i] != 0.0) m.trivial_diag[i] = pre[m.pre_start[i]];
+      Matrix::local_matrix_device_type::values_type v("A values", m.value_slot.size());
+      for (size_t q = 0; q < pre.size(); ++q)
+        if (m.pre_dest[q] >= 0) v(static_cast<size_t>(m.pre_dest[q])) = pre[q];
+      auto A = rcp(new Matrix(m.A->getCrsGraph(), v));
+      A->fillComplete(m.rmap, m.rmap);
+      m.A = A;
+      m.update_staleness();
+      return;
+    }
+  }
+  const size_t n = static_cast<size_t>(m.nlocal);
+  std::vector<size_t> start(n + 1, 0);
+  std::vector<GO> cols;
+  std::vector<SC> vals;
+  size_t added = 0;
+  for (const auto& r : m.rows) added += r.size();
+  cols.reserve(added);
+  vals.reserve(added);
+  // the record of this emission sequence, for the repeat path of the next assembly
+  m.rec_start.assign(n + 1, 0);
+  m.rec_cols.resize(added);
+  m.rec_order.resize(added);
+  m.rec_merged.resize(added);
+  m.rec_first.resize(added);
+  m.rec_single.assign(n, 2);
+  std::vector<std::pair<GO, std::uint32_t>> order;
+  for (size_t i = 0; i < n; ++i) {
+    const auto& r = m.rows[i];
+    const size_t b = m.rec_start[i];
+    m.rec_start[i + 1] = b + r.size();
+    // sort (column, emission index) by column only: the same permutation std::sort gives the
+    // (column, value) pairs, so the sums of duplicates keep their order
+    order.resize(r.size());
+    for (size_t j = 0; j < r.size(); ++j) {
+      m.rec_cols[b + j] = r[j].first;
+      order[j] = {r[j].first, static_cast<std::uint32_t>(j)};
+    }
+    std::sort(order.begin(), order.end(),
+              [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (size_t q = 0; q < order.size(); ++q) {
+      const double v = r[order[q].second].second;
+      const bool first = !(q > 0 && order[q].first == order[q - 1].first);
+      if (first) {
+        cols.push_back(order[q].first);
+        vals.push_back(v);
+      } else {
+        vals.back() += v;
+      }
+      m.rec_order[b + q] = order[q].second;
+      m.rec_merged[b + q] = cols.size() - 1;
+      m.rec_first[b + q] = first ? 1 : 0;
+    }
+    start[i + 1] = cols.size();
+    if (start[i + 1] - start[i] == 1 && cols[start[i]] == m.first + static_cast<GO>(i))
+      m.rec_single[i] = vals[start[i]] != 0.0 ? 1 : 0;
+  }
+  m.pre_start = start;
+  const std::vector<LO> old_kept = m.kept;
+  const GO old_rfirst = m.rfirst;
+  m.prec_type = type;
   m.block = m.prec_type == "MueLu" ? m.block_eq : 1;
   m.compress_rows(start, cols, vals);
   // Collective decision: a pattern that changed on one rank only (e.g. the free-surface flags
@@ -353,30 +456,58 @@ void LinearSystem::end() {
   const bool same = same_all == 1;
   if (same) {
     // A new matrix on the old (static) graph: the old matrix stays intact for a lagged
-    // preconditioner that still refers to it.
-    auto A = rcp(new Matrix(m.A->getCrsGraph()));
-    const GO rfirst = m.rfirst;
-    for (LO i = 0; i < static_cast<LO>(m.kept.size()); ++i) {
-      const auto b = start[static_cast<size_t>(i)], e = start[static_cast<size_t>(i) + 1];
-      A->replaceGlobalValues(rfirst + i, Teuchos::ArrayView<const GO>(cols.data() + b, e - b),
-                             Teuchos::ArrayView<const SC>(vals.data() + b, e - b));
-    }
-    A->fillComplete();
+    // preconditioner that still refers to it. The values go straight into Tpetra's local
+    // storage order (value_slot, from the pattern build): no global-index lookups.
+    Matrix::local_matrix_device_type::values_type v("A values", m.value_slot.size());
+    for (size_t q = 0; q < m.value_slot.size(); ++q) v(m.value_slot[q]) = vals[q];
+    auto A = rcp(new Matrix(m.A->getCrsGraph(), v));
+    A->fillComplete(m.rmap, m.rmap);
     m.A = A;
   } else {
+    // A new pattern, handed to Tpetra as local CSR arrays with the column map Tpetra's
+    // fillComplete would build (this rank's kept rows in order, then the remote columns by
+    // global index, which is by owning rank: rows are numbered rank by rank), so no sorting,
+    // merging or global lookups happen inside Tpetra. Local columns sorted within each row.
     const LO nk = static_cast<LO>(m.kept.size());
     const GO rfirst = m.rfirst;
-    Teuchos::Array<size_t> nnz(static_cast<size_t>(nk));
-    for (LO i = 0; i < nk; ++i)
-      nnz[i] = start[static_cast<size_t>(i) + 1] - start[static_cast<size_t>(i)];
-    m.A = rcp(new Matrix(m.rmap, nnz()));
+    std::vector<GO> remote;
+    for (GO c : cols)
+      if (c < rfirst || c >= rfirst + nk) remote.push_back(c);
+    std::sort(remote.begin(), remote.end());
+    remote.erase(std::unique(remote.begin(), remote.end()), remote.end());
+    Teuchos::Array<GO> colgids(static_cast<size_t>(nk) + remote.size());
+    for (LO i = 0; i < nk; ++i) colgids[static_cast<size_t>(i)] = rfirst + i;
+    std::copy(remote.begin(), remote.end(), colgids.begin() + nk);
+    auto colmap = rcp(new Map(Teuchos::OrdinalTraits<Tpetra::global_size_t>::invalid(),
+                              colgids(), 0, m.comm));
+    const size_t nnz = cols.size();
+    Matrix::local_graph_device_type::row_map_type::non_const_type ptr("A rows",
+                                                                      static_cast<size_t>(nk) + 1);
+    Matrix::local_graph_device_type::entries_type::non_const_type ind("A columns", nnz);
+    Matrix::local_matrix_device_type::values_type v("A values", nnz);
+    m.value_slot.resize(nnz);
+    std::vector<std::pair<LO, size_t>> row;  // (local column, position in cols) of one row
     for (LO i = 0; i < nk; ++i) {
-      const auto b = start[static_cast<size_t>(i)], e = start[static_cast<size_t>(i) + 1];
-      m.A->insertGlobalValues(rfirst + i,
-                              Teuchos::ArrayView<const GO>(cols.data() + b, e - b),
-                              Teuchos::ArrayView<const SC>(vals.data() + b, e - b));
+      const size_t b = start[static_cast<size_t>(i)], e = start[static_cast<size_t>(i) + 1];
+      row.clear();
+      for (size_t q = b; q < e; ++q) {
+        const GO c = cols[q];
+        const LO lc = c >= rfirst && c < rfirst + nk
+                          ? static_cast<LO>(c - rfirst)
+                          : nk + static_cast<LO>(std::lower_bound(remote.begin(), remote.end(), c) -
+                                                 remote.begin());
+        row.emplace_back(lc, q);
+      }
+      std::sort(row.begin(), row.end());
+      for (size_t j = 0; j < row.size(); ++j) {
+        ind(b + j) = row[j].first;
+        v(b + j) = vals[row[j].second];
+        m.value_slot[row[j].second] = b + j;
+      }
+      ptr(static_cast<size_t>(i) + 1) = e;
     }
-    m.A->fillComplete();
+    m.A = rcp(new Matrix(m.rmap, colmap, ptr, ind, v));
+    m.A->expertStaticFillComplete(m.rmap, m.rmap);
     m.row_start = std::move(start);
     m.pattern = std::move(cols);
     ++m.pattern_builds;
@@ -384,14 +515,27 @@ void LinearSystem::end() {
                              // lagged across free-surface flag changes it needs 2-3x the
                              // iterations, and the rebuilds it saves are lost again)
   }
-  // Lagged preconditioner: rebuild unless it is recent enough and still effective (the last
-  // solve converged within 1.5 times the iterations of its first solve, plus 2).
-  const int reuse = m.params.get<int>("Preconditioner reuse");
-  ++m.prec_age;
+  // where each pre-compression entry of a kept row sits in Tpetra's values (repeat path)
+  m.pre_dest.assign(m.pre_start.back(), -1);
+  const auto& kstart = m.row_start;  // equal to start when the pattern is the same
+  for (size_t q = 0; q < m.kept.size(); ++q) {
+    const size_t i = static_cast<size_t>(m.kept[q]);
+    for (size_t j = 0; j < m.pre_start[i + 1] - m.pre_start[i]; ++j)
+      m.pre_dest[m.pre_start[i] + j] = static_cast<long long>(m.value_slot[kstart[q] + j]);
+  }
+  m.rec_type = m.prec_type;
+  m.rec_valid = true;
+  m.update_staleness();
+}
+
+// Lagged preconditioner: rebuild unless it is recent enough and still effective (the last
+// solve converged within 1.5 times the iterations of its first solve, plus 2).
+void LinearSystem::Impl::update_staleness() {
+  const int reuse = params.get<int>("Preconditioner reuse");
+  ++prec_age;
   const bool effective =
-      m.last_converged && m.fresh_iters >= 0 && m.last_iters <= (3 * m.fresh_iters) / 2 + 2;
-  m.prec_stale = m.prec.is_null() || m.prec_age > reuse || !effective ||
-                 m.built_type != m.prec_type;
+      last_converged && fresh_iters >= 0 && last_iters <= (3 * fresh_iters) / 2 + 2;
+  prec_stale = prec.is_null() || prec_age > reuse || !effective || built_type != prec_type;
 }
 
 namespace {
