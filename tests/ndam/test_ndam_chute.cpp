@@ -128,10 +128,15 @@ TEST(NdamCoulomb, PlugFromRestFollowsTheRegularisedLaw) {
 }
 
 // The same on the issue's own grid (8 x 24 cells of 1.25 x 2.5 mm), 40/25/35 deg, at CFL 0.5,
-// 0.25, 0.125 (label `long`, about 45 s): u_mean within 1 % of the plug law at every output
-// from 0.05 s to 1 s at each dt, and the observed order of the differences between successive
-// dt, p = log2(|u_0.5 - u_0.25| / |u_0.25 - u_0.125|), positive at every output (measured
-// 1.38 at every output: the start-up error the step limit leaves, O(dt^1.4), carried along).
+// 0.25, 0.125 (label `long`, about 25 s): u_mean within 1 % of the plug law at every output
+// from 0.05 s to 1 s at each dt, and the error against the law shrinks at every output each
+// time dt halves, by at least a factor 0.8 (observed order p = log2(|e_dt| / |e_dt/2|) >= 0.32).
+// The law is exact, so the error against it is the measure; the order of the differences
+// between successive dt (a Richardson estimate, for when no exact solution is known) is
+// printed too but not asserted: the error is a start-up offset carried along (the same
+// absolute 1.1e-4 / 0.75e-4 / -0.29e-4 m/s at every output, measured), which changes sign at
+// the finest dt, so those differences grow although the error falls (observed orders 0.55
+// and 1.4 against the law; -1.55 for the differences).
 TEST(NdamPlugLong, IssueGridConvergesAsDtHalves) {
   std::vector<double> times;
   for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
@@ -155,11 +160,15 @@ TEST(NdamPlugLong, IssueGridConvergesAsDtHalves) {
       EXPECT_LT(std::abs(u.back()[q] / law[q] - 1.0), 0.01) << "CFL " << cfl << " t = " << times[q];
   }
   for (std::size_t q = 0; q < times.size(); ++q) {
-    const double p = std::log2(std::abs(u[0][q] - u[1][q]) / std::abs(u[1][q] - u[2][q]));
-    std::printf("plug (issue grid) t = %.2f s: error %+.4f / %+.4f / %+.4f %%, observed order %.2f\n",
+    double e[3];
+    for (int j = 0; j < 3; ++j) e[j] = std::abs(u[static_cast<std::size_t>(j)][q] / law[q] - 1.0);
+    const double pd = std::log2(std::abs(u[0][q] - u[1][q]) / std::abs(u[1][q] - u[2][q]));
+    std::printf("plug (issue grid) t = %.2f s: error %+.4f / %+.4f / %+.4f %%, observed order "
+                "against the law %.2f / %.2f (of the differences %.2f)\n",
                 times[q], 100 * (u[0][q] / law[q] - 1), 100 * (u[1][q] / law[q] - 1),
-                100 * (u[2][q] / law[q] - 1), p);
-    EXPECT_GT(p, 0.5) << "t = " << times[q];
+                100 * (u[2][q] / law[q] - 1), std::log2(e[0] / e[1]), std::log2(e[1] / e[2]), pd);
+    EXPECT_LT(e[1], 0.8 * e[0]) << "t = " << times[q];
+    EXPECT_LT(e[2], 0.8 * e[1]) << "t = " << times[q];
   }
 }
 
