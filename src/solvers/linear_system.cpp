@@ -398,7 +398,16 @@ void LinearSystem::end() {
   for (const auto& r : m.rows) added += r.size();
   cols.reserve(added);
   vals.reserve(added);
-  // the record of this emission sequence, for the repeat path of the next assembly
+  // the record of this emission sequence, for the repeat path of the next assembly; when it
+  // outgrows its capacity it grows by an eighth, not by doubling (a steady run's emission
+  // count wanders by a per cent: one such growth, not a resident set that doubles its share)
+  if (added > m.rec_cols.capacity()) {
+    const size_t cap = added + added / 8;
+    m.rec_cols.reserve(cap);
+    m.rec_order.reserve(cap);
+    m.rec_merged.reserve(cap);
+    m.rec_first.reserve(cap);
+  }
   m.rec_start.assign(n + 1, 0);
   m.rec_cols.resize(added);
   m.rec_order.resize(added);
@@ -485,6 +494,7 @@ void LinearSystem::end() {
                                                                       static_cast<size_t>(nk) + 1);
     Matrix::local_graph_device_type::entries_type::non_const_type ind("A columns", nnz);
     Matrix::local_matrix_device_type::values_type v("A values", nnz);
+    if (nnz > m.value_slot.capacity()) m.value_slot.reserve(nnz + nnz / 8);  // (as rec_cols)
     m.value_slot.resize(nnz);
     std::vector<std::pair<LO, size_t>> row;  // (local column, position in cols) of one row
     for (LO i = 0; i < nk; ++i) {
