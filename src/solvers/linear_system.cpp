@@ -145,6 +145,7 @@ struct LinearSystem::Impl {
   void compress_rows(std::vector<size_t>& start, std::vector<GO>& cols, std::vector<SC>& vals);
   RCP<MueLu::HierarchyManager<SC, LO, GO, Map::node_type>> muelu;  // cached interpreter
   long long pattern_builds = 0;     // graphs built (the pattern changed)
+  long long repeats = 0;            // assemblies that took the repeat path
   long long prec_setups = 0;        // preconditioners built
   double prec_setup_seconds = 0.0;  // their total setup time
 };
@@ -184,6 +185,7 @@ LinearSystem::~LinearSystem() = default;
 long long LinearSystem::preconditioner_setups() const { return impl_->prec_setups; }
 double LinearSystem::preconditioner_setup_seconds() const { return impl_->prec_setup_seconds; }
 long long LinearSystem::pattern_builds() const { return impl_->pattern_builds; }
+long long LinearSystem::repeat_assemblies() const { return impl_->repeats; }
 
 long long LinearSystem::global_rows() const {
   return static_cast<long long>(impl_->map->getGlobalNumElements());
@@ -324,7 +326,7 @@ void LinearSystem::Impl::compress_rows(std::vector<size_t>& start, std::vector<G
   rglobal = total;
 }
 
-// The emission record of the last full assembly (Impl::record): when the next assembly adds
+// The emission record of the last full assembly (the rec_* members): when the next assembly adds
 // the same (row, col) sequence, its values go straight to their places: no sorting, no
 // compression, no pattern comparison. Returns false (and leaves everything unchanged) if the
 // sequence or the preconditioner type differs, or if a single-diagonal row's value changed
@@ -386,10 +388,14 @@ void LinearSystem::end() {
       auto A = rcp(new Matrix(m.A->getCrsGraph(), v));
       A->fillComplete(m.rmap, m.rmap);
       m.A = A;
+      ++m.repeats;
       m.update_staleness();
       return;
     }
   }
+  // the record is rewritten below; until the matrix is built it describes nothing (an
+  // exception on the way must not leave a stale record for the next assembly's repeat path)
+  m.rec_valid = false;
   const size_t n = static_cast<size_t>(m.nlocal);
   std::vector<size_t> start(n + 1, 0);
   std::vector<GO> cols;
@@ -473,10 +479,13 @@ void LinearSystem::end() {
     A->fillComplete(m.rmap, m.rmap);
     m.A = A;
   } else {
-    // A new pattern, handed to Tpetra as local CSR arrays with the column map Tpetra's
-    // fillComplete would build (this rank's kept rows in order, then the remote columns by
-    // global index, which is by owning rank: rows are numbered rank by rank), so no sorting,
-    // merging or global lookups happen inside Tpetra. Local columns sorted within each row.
+    // A new pattern, handed to Tpetra as local CSR arrays, so no sorting, merging or global
+    // lookups happen inside Tpetra. The column map: this rank's kept rows in order, then the
+    // remote columns by global index (which is by owning rank: rows are numbered rank by
+    // rank). That is the map Tpetra's fillComplete builds whenever every kept row's own column
+    // appears on its rank (a stored diagonal, as in the models' matrices); otherwise it holds
+    // an owned index that no entry uses, which changes no product. Local columns sorted
+    // within each row.
     const LO nk = static_cast<LO>(m.kept.size());
     const GO rfirst = m.rfirst;
     std::vector<GO> remote;

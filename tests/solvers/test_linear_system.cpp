@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <vector>
 
 using granflow::solvers::LinearSystem;
@@ -95,6 +96,83 @@ TEST(LinearSystemStiffSwitch, AmgAboveTheThresholdKeepsIterationsFlat) {
   EXPECT_GT(sgs_1e4, 3 * sgs_1);
   EXPECT_LE(amg_1e4, 30);
   EXPECT_LT(3 * amg_1e4, sgs_1e4);
+}
+
+// The repeat path of LinearSystem::end (an assembly that adds the last one's (row, column)
+// sequence puts its values straight into their places): a persistent system taken through a
+// sequence of assemblies gives the same solution, to the last bit, as a fresh system built for
+// each assembly. The sequence has duplicates added in a scrambled order (the sums' order
+// matters), trivial rows added in two pieces, a trivial row whose value changes sign, a row
+// that starts to reference another rank's trivial row while that rank's own additions stay
+// the same (np 2: ctest solvers.linear_repeat_np2), a local reference, and the stiffness
+// switch to MueLu with two equations per node and back. Exactly the five pure repeats take
+// the repeat path (the other assemblies change the sequence or the preconditioner type).
+namespace {
+struct RepeatStep {
+  int variant;  // 0: the chain; 1: + a reference to trivial row 5; 2: + a second reference
+  double scale, trivial, stiffness;
+};
+void assemble_chain(LinearSystem& ls, long long first, int local, long long total,
+                    const RepeatStep& s) {
+  const long long lo = 10, hi = total - 10, ref1 = total / 2 + 5, ref2 = total - 11;
+  ls.begin();
+  for (long long r = first; r < first + local; ++r) {
+    if (r >= lo && r < hi) {
+      ls.add(r, r, 0.1 * s.scale);
+      if (r + 1 < hi) ls.add(r, r + 1, -1.0 / 3.0 * s.scale);
+      ls.add(r, r, 1.7 * s.scale + 1e-3 * static_cast<double>(r));
+      if (r - 1 >= lo) ls.add(r, r - 1, -1.0 / 7.0 * s.scale);
+      ls.add(r, r, 0.3 / 11.0 * s.scale);
+      if (r + 1 < hi) ls.add(r, r + 1, -1e-17 * static_cast<double>(r));
+      if (s.variant >= 1 && r == ref1) ls.add(r, 5, 0.25);
+      if (s.variant >= 2 && r == ref2) ls.add(r, total - 5, 0.125);
+    } else {
+      ls.add(r, r, 0.5 * s.trivial);
+      ls.add(r, r, 0.5 * s.trivial + 1e-16 * static_cast<double>(r));
+    }
+  }
+  ls.set_stiffness(s.stiffness);
+  ls.end();
+}
+std::vector<double> solve_chain(LinearSystem& ls, long long first, int local) {
+  std::vector<double> b(static_cast<std::size_t>(local)), x(b.size(), 0.0);
+  for (int i = 0; i < local; ++i) b[static_cast<std::size_t>(i)] = 1.0 + 0.01 * static_cast<double>(first + i);
+  const SolveStats st = ls.solve(b, x);
+  EXPECT_TRUE(st.converged);
+  return x;
+}
+}  // namespace
+
+TEST(LinearSystemRepeat, PersistentSystemEqualsFreshOnes) {
+  int ranks = 1, rank = 0;
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const int local = 40;  // even: MueLu's blocks of two equations stay on one rank
+  const long long total = static_cast<long long>(local) * ranks, first = static_cast<long long>(local) * rank;
+  for (const char* prec : {"Ifpack2 RELAXATION", "Ifpack2 RILUK"}) {
+    auto pl = *LinearSystem::getValidParameters("repeat", "GMRES", prec, 1e-12);
+    LinearSystem::add_stiff_switch(pl, "MueLu", 100.0, "test");
+    pl.sublist("MueLu").set("number of equations", 2);
+    pl.sublist("MueLu").set("coarse: max size", 10);
+    pl.set("Preconditioner reuse", 0);
+    const std::vector<RepeatStep> steps = {
+        {0, 1.0, 2.0, 1.0},  {0, 1.3, 2.0, 1.0},  {0, 1.3, -3.0, 1.0}, {1, 1.3, -3.0, 1.0},
+        {1, 0.9, 2.0, 1.0},  {0, 0.9, 2.0, 1.0},  {2, 0.9, 2.0, 1.0},  {2, 1.1, 2.0, 1e3},
+        {2, 1.2, 2.0, 1e3},  {2, 1.2, 2.0, 1.0},  {2, 1.25, 2.0, 1.0}};
+    LinearSystem persistent(MPI_COMM_WORLD, total, first, local, pl);
+    for (std::size_t q = 0; q < steps.size(); ++q) {
+      assemble_chain(persistent, first, local, total, steps[q]);
+      const auto xp = solve_chain(persistent, first, local);
+      LinearSystem fresh(MPI_COMM_WORLD, total, first, local, pl);
+      assemble_chain(fresh, first, local, total, steps[q]);
+      const auto xf = solve_chain(fresh, first, local);
+      int differ = std::memcmp(xp.data(), xf.data(), xp.size() * sizeof(double)) != 0, any = 0;
+      MPI_Allreduce(&differ, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+      EXPECT_EQ(any, 0) << prec << ", assembly " << q;
+    }
+    // the repeats: steps 1, 2, 4, 8 and 10 (same sequence and preconditioner type as before)
+    EXPECT_EQ(persistent.repeat_assemblies(), 5) << prec;
+  }
 }
 
 int main(int argc, char** argv) {

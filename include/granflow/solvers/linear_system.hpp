@@ -82,6 +82,9 @@ class LinearSystem {
   long long preconditioner_setups() const;
   double preconditioner_setup_seconds() const;
   long long pattern_builds() const;
+  /// Assemblies that added the previous one's (row, column) sequence and took the repeat path
+  /// (values straight into their places; the matrix is the one a full assembly would give).
+  long long repeat_assemblies() const;
 
   /// Valid list of one linear solver: `name` is the list's name, `solver` and `preconditioner`
   /// the defaults ("CG" for symmetric positive definite systems).
