@@ -143,6 +143,14 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "inflow/outflow. false: the box is full (cavity, rest tests)");
     add_int(*pl, "Markers per cell", d.markers_per_cell,
             "markers per cell along x and along z (n x n per cell) of the free surface", 1, 16);
+    add_enum(*pl, "Surface cell mass", d.surface_mass_share ? "Material share" : "Full cell",
+             "mass of a partly filled Surface cell (its top side empty) in the momentum step. "
+             "Full cell: NaSt2D's and the paper's; such a cell is driven by gravity over its "
+             "whole volume but held by the friction of the true depth, so a thin layer on a "
+             "slope below delta does not stop. Material share: the rows of its faces weight "
+             "mass and non-viscous forces by the share of the cells that holds material "
+             "(Implicit momentum only; docs/validation.md, stability suite, case 3)",
+             {"Full cell", "Material share"});
     add_double(*pl, "Initial depth", d.initial_depth,
                "[m] free surface: material layer z < depth at t = 0 on [Initial x0, Initial x1) "
                "(0: the chute starts empty)",
@@ -234,6 +242,12 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
   c.momentum = pl.get<std::string>("Momentum") == "Explicit" ? Momentum::Explicit
                                                              : Momentum::Implicit;
   c.cfl = pl.get<double>("CFL");
+  c.surface_mass_share = pl.get<std::string>("Surface cell mass") == "Material share";
+  if (c.surface_mass_share && c.momentum == Momentum::Explicit)
+    params::fail(pl, "Surface cell mass", "Material share",
+                 "the material share weights the mass of the implicit momentum step; with "
+                 "Momentum = Explicit it would divide the explicit viscous stress by it; "
+                 "allowed with Explicit: Full cell");
   c.gamma = pl.get<double>("Donor-cell weight");
   if (c.grid.nx < 2 * ranks)
     params::fail(pl, "Cells x", Teuchos::toString(c.grid.nx),

@@ -192,6 +192,30 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   auto force_u = [&](int i, int k) {
     return -conv_u(i, k) + phys_.gx - (p_(i + 1, k) - p_(i, k)) / dx;
   };
+  // 'Surface cell mass' = Material share: a Surface cell whose top side is empty holds
+  // material up to the column's marker depth h only, a share f = (h - k dz) / dz of its volume
+  // (the bed pressure, hence the friction, already comes from h: surface_pressure). Its faces'
+  // rows weight the mass term and the non-viscous forces by the mean f of the face's two cells,
+  //   f (u* - u^n) / dt = f (-C + g - G p) + V(u*),
+  // so a layer of one cell slides by the law of the block, f du/dt = f (g sin(zeta) - tan(delta)
+  // g cos(zeta) c): full cells only (f = 1) would drive the empty share by gravity, and a thin
+  // layer below delta would slide on (docs/validation.md, stability suite, case 3). f >= 1e-3
+  // keeps the row regular where a cell holds almost nothing.
+  auto share = [&](int gi, int k) {
+    if (mac_.gflag(gi, k) != CellFlag::Surface || !(mac_.mask(gi, k) & empty_side::Top) ||
+        col_h_.empty())
+      return 1.0;
+    const int nx = cfg_.grid.nx;
+    const int gw = cfg_.periodic_x() ? (gi % nx + nx) % nx : std::clamp(gi, 0, nx - 1);
+    return std::clamp((col_h_[static_cast<std::size_t>(gw)] - k * dz) / dz, 0.0, 1.0);
+  };
+  auto mass_share = [&](Comp c, int i, int k) {
+    if (!cfg_.surface_mass_share) return 1.0;
+    const int gi = mac_.slab.i0 + i;
+    const double f = c == U ? 0.5 * (share(gi, k) + share(gi + 1, k))
+                            : 0.5 * (share(gi, k) + share(gi, k + 1));
+    return std::max(f, 1e-3);
+  };
   auto force_w = [&](int i, int k) {
     return -conv_w(i, k) + phys_.gz - (p_(i, k + 1) - p_(i, k)) / dz;
   };
@@ -240,8 +264,9 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
             x[lr] = 0.0;
             continue;
           }
-          double b = c == U ? u_(i, k) / dt + force_u(i, k) : w_(i, k) / dt + force_w(i, k);
-          if (rebuild) momentum_->add(row, row, 1.0 / dt);
+          const double f = mass_share(c, i, k);
+          double b = f * (c == U ? u_(i, k) / dt + force_u(i, k) : w_(i, k) / dt + force_w(i, k));
+          if (rebuild) momentum_->add(row, row, f / dt);
           auto emit = [&](Comp cc, int ii, int kk, double coeff) {
             const Ref r = ref(cc, ii, kk);
             if (r.gid < 0) {  // a known value (boundary or free-surface face)

@@ -51,6 +51,8 @@ granflow_cli_test(dynamic_interface_off_node 0 "valid scene.*note: parameter .gr
                   --check ${_cli}/note_dynamic_off_node.xml)
 granflow_cli_test(coupled_ic_in_2d_part 2 "Initial condition->Type' = Block: puts material on \\[0, 0.1\\] m, inside the 2D subdomain"
                   ${_cli}/bad_coupled_ic_in_2d.xml)
+granflow_cli_test(surface_mass_explicit 2 "N-DAM->Surface cell mass' = Material share: .*allowed with Explicit: Full cell"
+                  ${_cli}/bad_surface_mass_explicit.xml)
 granflow_cli_test(coupled_ndam_ic_in_1d_part 2 "N-DAM->Initial depth' = 0.05: puts a layer on \\[0.3, 0.5\\] m, inside the 1D subdomain"
                   ${_cli}/bad_coupled_ndam_ic_in_1d.xml)
 

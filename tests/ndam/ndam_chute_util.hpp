@@ -30,6 +30,7 @@ struct FsCase {
   double newton_abs_tol = 0.0;
   std::string pressure_iteration = "Anderson fixed point";  // or "Newton-Krylov"
   double x0 = 0.0;  // grid origin along the slope (NdamConfig::x0, as a 2D subdomain has)
+  std::string surface_mass = "Full cell";  // 'Surface cell mass' ("Material share")
 };
 
 inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm = MPI_COMM_WORLD) {
@@ -49,6 +50,7 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   n.set("Friction regularisation", c.m_c);
   n.set("Pressure coupling", c.coupling);
   n.set("Pressure iteration", c.pressure_iteration);
+  n.set("Surface cell mass", c.surface_mass);
   if (c.newton_max > 0) n.sublist("Pressure Newton").set("Max Newton iterations", c.newton_max);
   if (c.newton_abs_tol > 0.0) {
     n.sublist("Pressure Newton").set("Absolute tolerance", c.newton_abs_tol);

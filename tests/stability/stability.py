@@ -97,6 +97,13 @@ CASES = [
          {"Channel/Slope angle": 20.0, "N-DAM/Friction regularisation": 1e4,
           "Channel/Left boundary/Inflow series file": REST_SERIES, "Time/End time": 4.0, "Output/Interval": 0.1},
          outcome="rest", t_rest=2.5, u_rest=0.01, bound=chute_bound(slope=20)),
+    # the same with 'Surface cell mass' = Material share: the layer of one or two partly filled
+    # cells is then held by friction as a full one is (docs/validation.md, case 3)
+    case("ndam_slope_20_rest_share", "setup2_ndam",
+         {"Channel/Slope angle": 20.0, "N-DAM/Friction regularisation": 1e4,
+          "N-DAM/Surface cell mass": "Material share",
+          "Channel/Left boundary/Inflow series file": REST_SERIES, "Time/End time": 4.0, "Output/Interval": 0.1},
+         outcome="rest", t_rest=2.5, u_rest=0.01, bound=chute_bound(slope=20)),
     # --- friction angles ---
     case("ndam_delta_0", "setup2_ndam", {"Material/Bed friction angle": 0.0}),
     case("ndam_delta_phi", "setup2_ndam", {"Material/Bed friction angle": 33.0}),

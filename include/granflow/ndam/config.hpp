@@ -87,6 +87,10 @@ struct NdamConfig {
   /// Material tracked by markers: cells with markers are Fluid/Surface, the others Empty (p = 0).
   bool free_surface = false;
   int markers_per_cell = 4;  ///< n_x = n_z of the marker sub-lattice
+  /// 'Surface cell mass' = Material share: the momentum rows of faces next to a partly filled
+  /// Surface cell (top side empty) weight their mass and their non-viscous forces by the
+  /// material share of the face's cells (momentum.cpp); false: every cell as a full cell.
+  bool surface_mass_share = false;
   /// Initial layer z < initial_depth on initial_x0 <= x < initial_x1 (0: no initial material);
   /// the default end 1e30 m lies beyond any channel: the layer reaches the end of the box.
   double initial_depth = 0.0, initial_x0 = 0.0, initial_x1 = 1e30;
