@@ -149,7 +149,8 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "whole volume but held by the friction of the true depth, so a thin layer on a "
              "slope below delta does not stop. Material share: the rows of its faces weight "
              "mass and non-viscous forces by the share of the cells that holds material "
-             "(Implicit momentum only; docs/validation.md, stability suite, case 3)",
+             "(Implicit momentum only; not yet robust for viscous flows, nu = 0.3 m^2/s: "
+             "docs/validation.md, stability suite, case 3)",
              {"Full cell", "Material share"});
     add_double(*pl, "Initial depth", d.initial_depth,
                "[m] free surface: material layer z < depth at t = 0 on [Initial x0, Initial x1) "

@@ -87,6 +87,10 @@ CASES = [
     case("ndam_nu_0.03", "setup2_ndam", {"Rheology/Viscosity": 0.03}),
     case("ndam_nu_0.3", "setup2_ndam", {"Rheology/Viscosity": 0.3}),
     case("ndam_nu_1", "setup2_ndam", {"Rheology/Viscosity": 1.0}),
+    # nu = 0.3 with the material share of partly filled surface cells (docs/validation.md,
+    # case 3): the option is not yet robust for viscous flows (measured: exit 3 at 0.33 s)
+    case("ndam_nu_0.3_share", "setup2_ndam",
+         {"Rheology/Viscosity": 0.3, "N-DAM/Surface cell mass": "Material share"}),
     # --- slope ---
     case("ndam_slope_0", "setup2_ndam", {"Channel/Slope angle": 0.0}, bound=chute_bound(slope=0)),
     case("ndam_slope_85", "setup2_ndam", {"Channel/Slope angle": 85.0},
