@@ -132,11 +132,19 @@ void NdamSolver::surface_pressure(Field& target) const {
       // increment g cos(zeta) (z_s - z_c) (z_s clamped into the cell). Without it the pressure
       // below a surface would be off by up to g cos(zeta) dz / 2 (5 % of the basal pressure of
       // a 10-cell layer, and the Coulomb friction with it).
-      if ((m & empty_side::Top) && !col_h_.empty()) {
-        const double zs = std::clamp(col_h_[static_cast<std::size_t>(gi)], k * dz, (k + 1) * dz);
-        target(i, k) += std::abs(phys_.gz) * (zs - (k + 0.5) * dz);
-      }
+      const double zs = surface_height(gi, k);
+      if (zs >= 0.0) target(i, k) += std::abs(phys_.gz) * (zs - (k + 0.5) * dz);
     }
+}
+
+double NdamSolver::surface_height(int gi, int k) const {
+  if (col_h_.empty() || mac_.gflag(gi, k) != CellFlag::Surface ||
+      !(mac_.mask(gi, k) & empty_side::Top))
+    return -1.0;
+  const int nx = cfg_.grid.nx;
+  const int gw = cfg_.periodic_x() ? (gi % nx + nx) % nx : gi;
+  const double dz = cfg_.grid.dz();
+  return std::clamp(col_h_[static_cast<std::size_t>(gw)], k * dz, (k + 1) * dz);
 }
 
 // Velocity conditions of the free surface on the columns [-1, nx_local] of (u, w):

@@ -202,12 +202,8 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   // layer below delta would slide on (docs/validation.md, stability suite, case 3). f >= 1e-3
   // keeps the row regular where a cell holds almost nothing.
   auto share = [&](int gi, int k) {
-    if (mac_.gflag(gi, k) != CellFlag::Surface || !(mac_.mask(gi, k) & empty_side::Top) ||
-        col_h_.empty())
-      return 1.0;
-    const int nx = cfg_.grid.nx;
-    const int gw = cfg_.periodic_x() ? (gi % nx + nx) % nx : std::clamp(gi, 0, nx - 1);
-    return std::clamp((col_h_[static_cast<std::size_t>(gw)] - k * dz) / dz, 0.0, 1.0);
+    const double zs = surface_height(gi, k);
+    return zs < 0.0 ? 1.0 : (zs - k * dz) / dz;
   };
   auto mass_share = [&](Comp c, int i, int k) {
     if (!cfg_.surface_mass_share) return 1.0;

@@ -93,6 +93,16 @@ Divergence restart_and_compare(const Chute& c, double t1, int steps, bool throug
   return d;
 }
 
+// restart_and_compare, the measured line, and the assertion: no step after the restart differs.
+void expect_continues_bit_for_bit(const Chute& c, double t1, int steps, const std::string& what,
+                                  bool through_file = false) {
+  const auto d = restart_and_compare(c, t1, steps, through_file);
+  std::printf("[measured] %s restart at %g s: first differing step %d, max |dh| %.3e m, max "
+              "|du| %.3e m/s over %d steps\n",
+              what.c_str(), t1, d.first_step, d.dh, d.du, steps);
+  EXPECT_EQ(d.first_step, -1);
+}
+
 }  // namespace
 
 TEST(Restart, NdamChuteContinuesBitForBit) {
@@ -100,10 +110,7 @@ TEST(Restart, NdamChuteContinuesBitForBit) {
   c.name = "rs_ndam";
   c.model = "N-DAM";
   c.wall = true;
-  const auto d = restart_and_compare(c, 0.35, 60);
-  std::printf("[measured] N-DAM restart at 0.35 s: first differing step %d, max |dh| %.3e m, "
-              "max |du| %.3e m/s over 60 steps\n", d.first_step, d.dh, d.du);
-  EXPECT_EQ(d.first_step, -1);
+  expect_continues_bit_for_bit(c, 0.35, 60, "N-DAM");
 }
 
 TEST(Restart, NdamChuteContinuesBitForBitThroughTheCheckpointFile) {
@@ -111,30 +118,21 @@ TEST(Restart, NdamChuteContinuesBitForBitThroughTheCheckpointFile) {
   c.name = "rs_ndam_file";
   c.model = "N-DAM";
   c.wall = true;
-  const auto d = restart_and_compare(c, 0.6, 60, true);
-  std::printf("[measured] N-DAM restart at 0.6 s through checkpoint.h5: first differing step %d, "
-              "max |dh| %.3e m, max |du| %.3e m/s over 60 steps\n", d.first_step, d.dh, d.du);
-  EXPECT_EQ(d.first_step, -1);
+  expect_continues_bit_for_bit(c, 0.6, 60, "N-DAM (through checkpoint.h5)", true);
 }
 
 TEST(Restart, CoupledStaticLayoutContinuesBitForBit) {
   Chute c;
   c.name = "rs_coupled";
   c.wall = true;
-  const auto d = restart_and_compare(c, 0.62, 60);  // material in all three parts
-  std::printf("[measured] coupled restart at 0.62 s: first differing step %d, max |dh| %.3e m, "
-              "max |du| %.3e m/s over 60 steps\n", d.first_step, d.dh, d.du);
-  EXPECT_EQ(d.first_step, -1);
+  expect_continues_bit_for_bit(c, 0.62, 60, "coupled");  // material in all three parts
 }
 
 TEST(Restart, DynamicLayoutContinuesBitForBit) {
   const Chute c = dynamic_chute("rs_dynamic", "2D, 1D, 2D", "0.2, 0.7");
   // after the impact, with a layout the manager has changed (the restarted model is built from
   // the scene's initial layout and takes the checkpoint's), and moves still to come
-  const auto d = restart_and_compare(c, 0.62, 150);
-  std::printf("[measured] dynamic restart at 0.62 s: first differing step %d, max |dh| %.3e m, "
-              "max |du| %.3e m/s over 150 steps\n", d.first_step, d.dh, d.du);
-  EXPECT_EQ(d.first_step, -1);
+  expect_continues_bit_for_bit(c, 0.62, 150, "dynamic");
 }
 
 // A part the manager created from 1D (Setup II from 2D [0, 0.3] / 1D [0.3, 1]: the part at the
@@ -144,10 +142,7 @@ TEST(Restart, DynamicLayoutContinuesBitForBit) {
 // restart differed, by up to 16 mm in h).
 TEST(Restart, DynamicLayoutWithACreatedPartContinuesBitForBit) {
   const Chute c = dynamic_chute("rs_dynamic_created", "2D, 1D", "0.3");
-  const auto d = restart_and_compare(c, 0.6, 150, true);
-  std::printf("[measured] dynamic restart at 0.6 s after a created part: first differing step "
-              "%d, max |dh| %.3e m, max |du| %.3e m/s over 150 steps\n", d.first_step, d.dh, d.du);
-  EXPECT_EQ(d.first_step, -1);
+  expect_continues_bit_for_bit(c, 0.6, 150, "dynamic (after a created part)", true);
 }
 
 // The field output of a coupled run shows in its 1D columns what profiles.csv shows (found by an

@@ -220,6 +220,10 @@ class NdamSolver final : public core::Stepper {
   Ref surface_face_ref(Comp c, int i, int k) const;
   void surface_conditions();
   void surface_pressure(Field& target) const;
+  /// The free surface inside global cell (gi, k) (wrapped when periodic): the column's marker
+  /// depth clamped into [k dz, (k + 1) dz] for a Surface cell whose top side is empty; -1 for
+  /// every other cell (or before the column depths exist).
+  double surface_height(int gi, int k) const;
   void apply_free_surface(Field& u, Field& w) const;
   void advect_markers(double dt);
   void update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
