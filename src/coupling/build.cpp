@@ -61,6 +61,7 @@ std::unique_ptr<CoupledModel> build(const Decomposition& layout, const core::Mat
   auto model =
       std::make_unique<CoupledModel>(std::move(parts), factory->interface_options(), factory);
   model->set_subcycling(d.subcycling);
+  model->set_interface_mass_relaxation(d.interface_mass_relaxation);
   return model;
 }
 

@@ -358,6 +358,7 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
         rest -= mine;
       }
     }
+    rec.remainder_unplaced = rest;
   }
 
   // --- build the parts ---------------------------------------------------------------------------

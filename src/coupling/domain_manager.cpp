@@ -19,7 +19,7 @@ namespace granflow::coupling {
 
 namespace {
 using Clock = std::chrono::steady_clock;
-constexpr int kMoveFields = 13;  // numbers per move in the checkpoint
+constexpr int kMoveFields = 14;  // numbers per move in the checkpoint
 
 std::string describe(const std::vector<Subdomain>& parts) {
   std::ostringstream os;
@@ -284,8 +284,11 @@ bool DomainManager::adapt(CoupledModel& model) {
   Move mv;
   mv.t = t;
   mv.before = describe(parts);
+  model.settle_interfaces();  // the reconnected interfaces start with nothing carried
   auto rebuilt = rebuild(parts, first, last - first + 1, sub, *factory_, mv.record);
   model.replace_parts(first, last - first + 1, std::move(rebuilt));
+  // what no part took stays in the run's ledger
+  model.book_unplaced(mv.record.remainder_unplaced + mv.record.pending_lost);
   mv.after = describe(model.parts());
   mv.seconds = std::chrono::duration<double>(Clock::now() - t1).count();
   log_.push_back(mv);
@@ -303,7 +306,8 @@ void DomainManager::save(io::Checkpoint& c) const {
                            m.record.remainder_given_back, m.record.remainder_to_inflow,
                            static_cast<double>(m.record.columns_to_2d),
                            static_cast<double>(m.record.columns_to_1d), m.seconds,
-                           m.record.pending_to_1d, m.record.pending_lost});
+                           m.record.pending_to_1d, m.record.pending_lost,
+                           m.record.remainder_unplaced});
   c.set("manager/moves", rec);
   c.set("manager/move_fields", static_cast<double>(kMoveFields));
 }
@@ -338,6 +342,7 @@ void DomainManager::load(const io::Checkpoint& c) {
       m.record.pending_to_1d = rec[i + 11];
       m.record.pending_lost = rec[i + 12];
     }
+    if (stride >= 14) m.record.remainder_unplaced = rec[i + 13];
     m.before = m.after = "(before the restart)";
     log_.push_back(m);
   }
@@ -361,6 +366,7 @@ void DomainManager::report(nlohmann::json& s) const {
                      {"marker_remainder", m.record.remainder},
                      {"remainder_given_back", m.record.remainder_given_back},
                      {"remainder_to_inflow", m.record.remainder_to_inflow},
+                     {"remainder_unplaced", m.record.remainder_unplaced},
                      {"pending_inflow_to_1d", m.record.pending_to_1d},
                      {"pending_inflow_lost", m.record.pending_lost},
                      {"columns_to_2d", m.record.columns_to_2d},

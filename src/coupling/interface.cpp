@@ -5,6 +5,7 @@
 #include "granflow/dam/dam_solver.hpp"
 #include "granflow/ndam/ndam_solver.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -81,6 +82,20 @@ std::optional<std::array<double, 2>> Interface::pending_mass(double t, double dt
   if (!p || std::abs(p->t0 - t) > 1e-12 * (1.0 + t) || std::abs(p->dt - dt) > 1e-12 * dt)
     return std::nullopt;
   return std::array<double, 2>{p->out, p->out - p->out_flux};
+}
+
+double Interface::carried() const {
+  if (down_->one_d()) return mass_[0] - mass_[1];
+  return up_->one_d() ? down_->ndam->inflow_pending() : 0.0;
+}
+
+void Interface::settle(double dt, double relaxation) {
+  if (!down_->one_d()) return;
+  const double w = relaxation > 0.0 ? std::min(1.0, dt / relaxation) : 1.0;
+  const double c = w * carried();
+  if (c == 0.0) return;
+  // a dry first DAM cell takes the velocity the upstream side has at x
+  mass_[1] += down_->dam->take_interface_mass(c, up_->sample(x())[1]);
 }
 
 void Interface::book() {

@@ -908,6 +908,34 @@ void DamSolver::accept() {
   positivity_fixes_ += fixes_new_;
 }
 
+// Mass handed over at the left end between two steps (see the declaration). The cells are those
+// of the current grid from the left end: on the staggered grid the first is the half cell
+// [x0, x0 + dx/2] (weight 1/2, as mass() counts it). Positive mass goes into the first cell;
+// a removal leaves every cell at least half its depth, so it never empties one or flips a sign.
+double DamSolver::take_interface_mass(double m, double u_dry) {
+  if (h_.empty() || m == 0.0 || !std::isfinite(m)) return 0.0;
+  auto width = [&](std::size_t k) { return (staggered_ && k == 0 ? 0.5 : 1.0) * dx_; };
+  double placed = 0.0;
+  if (m > 0.0) {
+    const double w = width(0), h0 = h_[0];
+    h_[0] += m / w;
+    hu_[0] = h0 > cfg_.dry_depth ? hu_[0] * (h_[0] / h0) : h_[0] * u_dry;
+    placed = m;
+  } else {
+    double rest = -m;
+    for (std::size_t k = 0; k < h_.size() && rest > 0.0; ++k) {
+      if (!(h_[k] > cfg_.dry_depth)) continue;
+      const double take = std::min(rest, 0.5 * h_[k] * width(k)), h0 = h_[k];
+      h_[k] -= take / width(k);
+      hu_[k] *= h_[k] / h0;
+      rest -= take;
+      placed -= take;
+    }
+  }
+  mass_in_ += placed;
+  return placed;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Output
 // ---------------------------------------------------------------------------------------------

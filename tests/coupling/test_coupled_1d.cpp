@@ -116,11 +116,16 @@ TEST(Coupled1D, ThreeSubdomainsReproduceTheSingleChannelAndTrackInterfaceMass) {
   EXPECT_NEAR(dep_a, dep_b, 2e-2 * dep_b);
   EXPECT_LE(std::abs(shock(a) - shock(b)), dx + 1e-12);
   // Mass through an interface seen from the two sides: the two DAMs evaluate the flux across
-  // x_IF from different reconstructions, so they agree to discretisation accuracy only; both
-  // sides are recorded and the total defect is their mismatch. Measured ~1e-3 relative.
-  EXPECT_NEAR(i0[1], i0[0], 5e-3 * i0[0]);
-  EXPECT_NEAR(i1[1], i1[0], 5e-3 * i1[0]);
-  EXPECT_NEAR(mb.defect(), (i0[1] - i0[0]) + (i1[1] - i1[0]), 1e-14);
+  // x_IF from different reconstructions, so their own fluxes agree to discretisation accuracy
+  // only (~1e-3 of the transfer, measured before the hand-over). The difference is carried and
+  // handed to the downstream DAM's first cells at the rate 1 / (0.01 s) (Interface::settle), so
+  // what is still carried at the end is about that rate of mismatch times 0.01 s: 1e-3 x
+  // 0.01 s / 0.75 s ~ 1.3e-5 of the transfer. Measured 5e-7; asserted 5e-5 (without the
+  // hand-over it is 1e-3). The run's balance, which counts the carried mass, closes to
+  // round-off (measured 1.4e-17 m^2; asserted 1e-13 m^2, round-off of ~10^3 summed steps).
+  EXPECT_NEAR(i0[1], i0[0], 5e-5 * i0[0]);
+  EXPECT_NEAR(i1[1], i1[0], 5e-5 * i1[0]);
+  EXPECT_LT(std::abs(mb.defect()), 1e-13);
 }
 
 // DAM->Bed friction angle (delta_1D, the paper's Fig. 12 study) replaces the Material's delta

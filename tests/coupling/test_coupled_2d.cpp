@@ -124,40 +124,27 @@ TEST(Coupled2D, MassThroughInterfacesIsConserved) {
   EXPECT_GE(pending, -1e-15);
   EXPECT_LE(pending, 24 * 6.25e-6);
   // 2D -> 1D: the DAM's first cells evaluate the flux across x = 0.2 m from the 2D columns' h and
-  // u_mean (eqs. 19-21), the 2D side counts the markers that left. On the staggered grid the
-  // DAM's end cell is centred at x_IF and its ledger has already taken in about half a cell,
-  // dx h / 2, that the 2D side still holds (given back on the next, primary step; seen in a
-  // staggered state: in - out = 8.47e-5 m^2 against dx h / 2 = 8.9e-5 m^2). Measured here
-  // (primary grid at t = 0.75 s): -0.065 % of the transfer with CG for the momentum solve,
-  // -0.53 % (5.8e-5 m^2) with GMRES, and -0.36 % (-3.9e-5 m^2, staggered grid, where the
-  // half-cell argument would predict the opposite sign) with GMRES + Gauss-Seidel: all solve to
-  // 1e-10, but the marker paths, and with them the cells the markers cross, differ within that
-  // tolerance, so this non-exact interface's mismatch moves by that much, in either direction.
-  // With markers injected at random heights of their strips (issue 11): +1.07 % (1.2e-4 m^2).
-  // At 5 mm the same mismatch is +0.34 / +0.35 % for strip-centre / random heights with outputs
-  // every 0.005 s, +0.13 / +0.89 % with outputs every 0.25 s: it follows the step sequence.
-  // The mismatch is not one cell's worth held in the overlap: it accumulates. Each primary
-  // step books dx (h_g - h_0) / 4 of the overlap (h_g the 2D column's depth in the DAM's ghost,
-  // h_0 the DAM's end cell), each staggered step dx h'_0 / 8, and where the two models' depths
-  // at x_IF differ by a steady offset these terms do not cancel: the mismatch grows with the
-  // number of steps. In this run it rises from 7e-5 m^2 at 0.25 s (the front crossing) to
-  // 2.4e-4 m^2 at 0.75 s in steady inflow. Measured (DAM Beam-Warming with minmod at steep
-  // fronts, since issue 12's coupled 1D-tip fix) over the N-DAM CFL 0.4 / 0.45 / 0.5: +0.19 /
-  // -0.69 / +2.28 %; before that fix -0.16 / +0.29 / +1.07 % (it passed the earlier bound of one
-  // DAM cell, 2 x 9.4e-5 m^2 = 1.7 %, by the step sequence only); with Minmod in the DAM
-  // +2.60 % at CFL 0.5. Asserted: 3 % of the transfer, the largest of these plus 15 %. (An exact
-  // 2D -> 1D interface, the DAM taking in the 2D side's outgoing markers, would make this 0.)
-  EXPECT_NEAR(i0[1], i0[0], 0.03 * i0[0]);
-  // Total balance: the 2D subdomains' marker ledgers are exact (defect 0), the DAM's is exact
-  // up to its positivity fixes at the front, so the coupled defect is the 2D->1D mismatch plus
-  // the 1D->2D pending mass plus the subdomains' own defects, to round-off.
+  // u_mean (eqs. 19-21), the 2D side counts the markers that left. Left alone, the two counts
+  // drifted apart: each primary step books dx (h_g - h_0) / 4 of the overlap (h_g the 2D
+  // column's depth in the DAM's ghost, h_0 the DAM's end cell), each staggered step dx h'_0 / 8,
+  // and where the two models' depths at x_IF differ by a steady offset these terms do not
+  // cancel. The mismatch grew with the steps, to 2.4e-4 m^2 (2.2 % of the transfer) at 0.75 s
+  // here, between -0.7 and +2.3 % over N-DAM CFL 0.4-0.5, so the DAM made mass. Now the
+  // difference is carried and handed to the DAM's first cells, dt / 0.01 s of it per step
+  // (Interface::settle). What is carried is then one staggered step's overlap term at most (on
+  // the staggered grid the DAM's ledger has taken in about half a cell, dx h / 2, that the 2D
+  // side still holds; here 9.0e-5 m^2) plus the drift rate times 0.01 s (3e-6 m^2). Measured
+  // 1.1e-5 m^2 (0.1 %); asserted 1.5 half cells, below the 2.7 half cells of the drift without
+  // the hand-over.
+  EXPECT_LT(std::abs(i0[0] - i0[1]), 1.5 * half_cell);
+  // Total balance: the 2D subdomains' marker ledgers are exact (defect 0), the DAM's too up to
+  // positivity fixes at the front, and the coupled ledger counts what the interfaces carry
+  // (the 2D -> 1D difference above and the 1D -> 2D pending inflow), so it closes to the
+  // subdomains' own defects within round-off (measured -3.5e-18 m^2; asserted 1e-13 m^2,
+  // round-off of ~10^3 summed steps of 1e-5 m^2).
   EXPECT_NEAR(defects[0], 0.0, 1e-15);
   EXPECT_NEAR(defects[2], 0.0, 1e-15);
-  EXPECT_NEAR(mb.defect(), (i0[1] - i0[0]) + (i1[1] - i1[0]) + parts_defect, 1e-12);
-  // The whole balance therefore closes to within those bounds: one DAM cell at 0.2 m, the
-  // pending markers at 0.7 m and the DAM's own positivity defect (measured -4.8e-5 m^2 of
-  // 0.0165 m^2, 0.3 %).
-  EXPECT_LT(std::abs(mb.defect()), 2.0 * half_cell + 24 * 6.25e-6 + std::abs(defects[1]));
+  EXPECT_NEAR(mb.defect(), parts_defect, 1e-13);
 }
 
 // Steady supercritical flow through both interfaces: Setup I's chute shortened to L = 1 m (open
@@ -345,7 +332,7 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
   // Steps to t_end, counting the hole cells of every accepted step and integrating the
   // wall-bottom pressure over time.
   struct Log {
-    std::size_t holes = 0;
+    std::size_t holes = 0, voids = 0, open_steps = 0, longest = 0, at_outputs = 0;
     double p_int = 0.0, p2_int = 0.0, p3_int = 0.0, n_int = 0.0, t_int = 0.0;
   } la, lb;
   auto advance = [](core::Stepper& s, double t_end, Log& log) {
@@ -355,7 +342,12 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
       const auto h = s.check();
       ASSERT_TRUE(h.ok) << h.reason << " at x = " << h.x;
       s.accept();
-      log.holes += hole_cells(s);
+      const std::size_t holes = hole_cells(s);
+      log.holes += holes;
+      // a void that opens (none in the step before), and how many steps the longest one lasted
+      if (holes > 0 && log.open_steps == 0) ++log.voids;
+      log.open_steps = holes > 0 ? log.open_steps + 1 : 0;
+      log.longest = std::max(log.longest, log.open_steps);
       log.p_int += wall_bottom_pressure(s) * dt;
       log.p2_int += wall_bottom_pressure(s, 0.02) * dt;
       log.p3_int += wall_bottom_pressure(s, 0.03) * dt;
@@ -385,6 +377,8 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
     for (Log* l : {&la, &lb}) l->p_int = l->p2_int = l->p3_int = l->n_int = l->t_int = 0.0;
     advance(*a, t, la);
     advance(*b, t, lb);
+    la.at_outputs += hole_cells(*a);
+    lb.at_outputs += hole_cells(*b);
     const auto A = a->profile(), B = b->profile();
     ASSERT_EQ(A.x.size(), B.x.size());
     std::vector<double> da, db;
@@ -424,12 +418,21 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
   }
   std::printf("[measured] Setup II deposit from 0.7 s, coupled vs full: wall-bottom p (bottom 3 cm) "
               "%.4f, (bottom 1 cm) %.4f; wall normal force %.4f\n", worst_p, worst_p1, worst_n);
-  // No hole in the full 2D run at any step (measured: none); in the coupled run at most the
-  // 1-2 hole cell-steps of a void opening in the deposit that the comment above describes for
-  // both runs at other solver settings (measured: none before issue 12's coupled 1D-tip fix of
-  // the DAM; 2 since, first seen at 1.30-1.35 s, one void; its place was not traced).
+  // No hole in the full 2D run at any step (measured: none); no hole in the coupled run at any
+  // output (the issue's criterion), and between outputs at most one void of a single cell that
+  // opens in the deposit and closes within a few steps, the kind the comment above describes for
+  // both runs at other solver settings. Measured: none before issue 12's coupled 1D-tip fix of
+  // the DAM; 2 cell-steps of one void at 1.30-1.35 s after it; with the exact 2D -> 1D
+  // interface mass (Interface::settle) one cell for 5 steps, 1.3572-1.3608 s (3.6 ms of the
+  // run's ~2800 steps). Asserted: one void, closed within 10 steps (a void that stayed, the
+  // fault of issue 11 item 3, was 63 hole cells over 31 outputs).
+  std::printf("[measured] hole cell-steps full %zu coupled %zu; coupled voids %zu, longest %zu "
+              "steps; holes at outputs full %zu coupled %zu\n",
+              la.holes, lb.holes, lb.voids, lb.longest, la.at_outputs, lb.at_outputs);
   EXPECT_EQ(la.holes, 0u);
-  EXPECT_LE(lb.holes, 2u);
+  EXPECT_EQ(lb.at_outputs, 0u);
+  EXPECT_LE(lb.voids, 1u);
+  EXPECT_LE(lb.longest, 10u);
   // From 0.65 s (after the impact peak) to 1 s at every output:
   // u_mean within the issue's 3 % (L2; measured at most 2.2 % at 5 mm with the 1e-12 momentum
   // solves, 2.0-2.1 % before at 1e-10; the DAM's own 2 % faster flow over [0.2, 0.7] m is in it,

@@ -52,17 +52,20 @@ struct ConversionRecord {
   double remainder = 0.0;  ///< marker remainders of filled 2D columns [m^2]
   double remainder_given_back = 0.0;  ///< of which given to a DAM cell or carried as inflow
   double remainder_to_inflow = 0.0;   ///< of which carried as inflow (not in mass_after)
+  /// of which no part could take (a whole channel made 2D: no DAM, no interface inflow);
+  /// booked in the coupled model's ledger (CoupledModel::book_unplaced), not in mass_after
+  double remainder_unplaced = 0.0;
   /// Pending inflow of a 1D-to-2D interface that vanished with no 2D part downstream to take
-  /// it (a change of the run's mass, booked here) [m^2].
+  /// it (booked in the coupled model's ledger, CoupledModel::book_unplaced) [m^2].
   double pending_lost = 0.0;
   /// Pending inflow of a vanished 1D-to-2D interface with no 2D part downstream, put back into
   /// the DAM cell just downstream of it (in mass_after) [m^2].
   double pending_to_1d = 0.0;
-  /// Mass not accounted for by the move: mass_after + remainder_to_inflow - mass_before -
-  /// pending_to_1d - pending_lost (round-off when every remainder and pending inflow found a
-  /// place; -pending_lost when some did not).
+  /// Mass not accounted for by the move: mass_after + remainder_to_inflow +
+  /// remainder_unplaced - mass_before - pending_to_1d (round-off: every remainder and pending
+  /// inflow goes into a part or into the ledger).
   double defect() const {
-    return mass_after + remainder_to_inflow - mass_before - pending_to_1d - pending_lost;
+    return mass_after + remainder_to_inflow + remainder_unplaced - mass_before - pending_to_1d;
   }
   int columns_to_2d = 0, columns_to_1d = 0;  ///< 2D-column-sized slots that changed model
 };

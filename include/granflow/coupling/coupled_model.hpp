@@ -49,6 +49,9 @@ struct Decomposition {
   bool shock_indicator = true;      ///< a shock on the 1D side counts as 2D
   /// The 1D parts take their own stable steps inside the common step of the 2D parts.
   bool subcycling = true;
+  /// [s] interfaces into a DAM hand the mass their two sides count differently to the DAM's
+  /// first cells at the rate 1 / this (Interface::settle); 0: all of it after every step.
+  double interface_mass_relaxation = 0.01;
   /// 1D-to-2D interfaces: how the pressure of eq. (26) enters the 2D inflow column
   /// ("Rheology", "Dirichlet" or "None"; see ndam::InflowPressure).
   std::string interface_pressure = "Rheology";
@@ -119,6 +122,16 @@ class CoupledModel final : public core::Stepper {
   /// Sub-cycling of the 1D parts (Decomposition->Sub-cycling): the common dt is the 2D parts'
   /// (at most kMaxSubsteps of a 1D part's stable step), each DAM sub-cycles inside it.
   void set_subcycling(bool on) { subcycling_ = on; }
+  /// Decomposition->Interface mass relaxation (Interface::settle).
+  void set_interface_mass_relaxation(double seconds) { relaxation_ = seconds; }
+  /// Hands every interface's carried mass to its DAM now (before the domain manager rebuilds
+  /// parts: reconnected interfaces start from nothing carried). What no DAM cell can take
+  /// (a removal from a nearly dry DAM) stays booked in the coupled model's ledger.
+  void settle_interfaces();
+  /// Mass [m^2] that leaves the parts without leaving the channel and that no part can take (a
+  /// move's unplaced marker remainder, the pending inflow of a vanished interface): kept in
+  /// the run's ledger (mass_balance().current), reported as `mass_unplaced`.
+  void book_unplaced(double m) { unplaced_ += m; }
   static constexpr int kMaxSubsteps = 64;
   const DomainManager* domain_manager() const { return manager_.get(); }
   std::shared_ptr<const SubdomainFactory> factory() const { return factory_; }
@@ -142,6 +155,9 @@ class CoupledModel final : public core::Stepper {
   double retired_inflow_ = 0.0, retired_outflow_ = 0.0;  // booked by replaced end parts
   std::unique_ptr<DomainManager> manager_;
   bool subcycling_ = false;
+  double relaxation_ = 0.0;
+  double last_dt_ = 0.0;     // of the step in progress
+  double unplaced_ = 0.0;    // book_unplaced() and what settle_interfaces() could not place
 };
 
 }  // namespace granflow::coupling

@@ -58,6 +58,19 @@ class Interface {
   std::optional<std::array<double, 2>> pending_mass(double t, double dt) const;
   /// After an accepted step: books what crossed x on each side.
   void book();
+  /// Into a DAM (2D -> 1D, 1D | 1D): the DAM's own scheme evaluates the flux through x from
+  /// its ghosts, which is not what the upstream side let out (the 2D side counts the markers
+  /// that left; the staggered scheme's overlap adds averaging terms). The difference is carried
+  /// (carried()) and handed to the DAM's cells at x after every accepted step of length dt, the
+  /// fraction min(1, dt / relaxation) of it (relaxation 0: all of it), so that no mass is made
+  /// or lost at the interface: the alternating averaging terms and the markers' one-at-a-time
+  /// outflow average out in the carried mass instead of shaking the DAM's first cell. No-op for
+  /// 1D -> 2D (the 2D side already takes the DAM's exact ledger term).
+  void settle(double dt, double relaxation);
+  /// Mass that left the upstream side and has not yet entered the downstream one [m^2]: into
+  /// a DAM the difference of the two sides' counts; for 1D -> 2D what the 2D inflow holds
+  /// (NdamSolver::inflow_pending(): its gate's fractional markers and carried mass).
+  double carried() const;
   /// Cumulative mass out of the upstream side through x and into the downstream side [m^2]
   /// since this interface was connected.
   std::array<double, 2> mass() const { return mass_; }

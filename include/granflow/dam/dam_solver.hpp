@@ -170,6 +170,13 @@ class DamSolver final : public core::Stepper {
     if (!(t_new_ > t_)) return std::nullopt;
     return PendingStep{t_, t_new_ - t_, in_new_, out_new_, out_flux_new_};
   }
+  /// Puts mass m [m^2] (m < 0: takes it) into the cells at the left end between two steps: the
+  /// coupled model hands over what the neighbour upstream let out through that end and this
+  /// DAM's own flux there did not take in (CoupledModel::accept). Velocities are kept (hu scales
+  /// with h); a dry first cell takes u_dry. A removal takes at most half of any cell's depth,
+  /// going on downstream. Booked as inflow through the left end, so the DAM's ledger stays
+  /// closed. Returns the mass placed (m, unless the channel holds too little to take -m).
+  double take_interface_mass(double m, double u_dry);
   double x_left() const { return x0_; }
   double x_right() const { return x1_; }
 
