@@ -22,12 +22,17 @@ namespace granflow::ndam {
 
 namespace {
 // Exact transfer through a 1D-to-2D interface: the velocity that lets in the DAM's outgoing mass
-// is capped at kInflowSpeedup |u_mean| + kInflowSpeedupFloor of the provider. stable_dt() set
-// this step's CFL condition with the provider's u_mean, so the cap keeps the injection within
-// 1.5 times what the step was chosen for; the floor (0.1 m/s, a few per cent of the chute's
-// 0.4-3 m/s) lets mass in while the provider's u_mean is still ~0 (a front arriving).
-constexpr double kInflowSpeedup = 1.5;
+// is capped at |u_mean| + kInflowSpeedupFloor of the provider (eq. 24: the 2D side's mean
+// velocity is the 1D side's); the floor (0.1 m/s, a few per cent of the chute's 0.4-3 m/s) lets
+// mass in while the provider's u_mean is still ~0 (a front arriving). Where the mass needs more,
+// the opening is deepened instead, up to kInflowDeepen times the provider's depth: at the DAM's
+// tip the reconstruction's depth at x_IF lags the flux that its ledger lets out. Before, the
+// velocity took it, up to 1.5 |u_mean| + 0.1 m/s: the tip's first markers entered at 1.4 times
+// the DAM's tip speed and the first 2D columns were the fastest cells of every coupled run
+// (5.05 m/s against the 4.48 m/s bound of the free-slip case; docs/validation.md, "Stability
+// suite"). The mass per step it can take is the same, 1.5 h |u_mean| (+ the floor).
 constexpr double kInflowSpeedupFloor = 0.1;  // [m/s]
+constexpr double kInflowDeepen = 1.5;
 // Below this inflow depth the step takes nothing: a film of 0.1 mm (1/50 of the 5 mm cells of
 // the paper's grids) would need u = mass / (dt h) far above the cap to carry the mass. What is
 // not taken is carried to the next steps (pending mass), so no mass is lost.
@@ -54,21 +59,25 @@ void NdamSolver::gate_state(double dt) {
   if (inflow_mass_) {
     if (const auto m = inflow_mass_(t_, dt)) {
       // Exact transfer: the step lets in what the upstream side let out (plus what earlier
-      // steps could not take), at a velocity capped by kInflowSpeedup and from a depth of at
-      // least kInflowMinDepth; the rest waits for the next steps. In a step much shorter than the
+      // steps could not take), at a velocity capped at |u_mean| + kInflowSpeedupFloor, through
+      // an opening deepened up to kInflowDeepen h where that velocity does not carry it, from a
+      // depth of at least kInflowMinDepth; the rest waits for the next steps. In a step much shorter than the
       // stable one the DAM's averaging term (m->held) can outweigh the flux with either sign:
       // taken into the velocity it closed the inflow of a 2.6 m/s layer for 1e-5 s (Setup II
       // coupled, 5 mm, t = 1.44999 s: out = -1.4e-8 m^2 against h u dt = 2.2e-7 m^2), and the
       // pressure impulse of closing and reopening blew up the inflow column (docs/validation.md,
       // "Runtime domain manager"). Such a step takes its velocity without it (kInflowHeldFraction).
       const double target = m->mass + inflow_owed_, h = inflow_now_[0];
-      const double ucap = kInflowSpeedup * std::abs(inflow_now_[1]) + kInflowSpeedupFloor;
+      const double ucap = std::abs(inflow_now_[1]) + kInflowSpeedupFloor;
       const bool held = std::abs(m->held) > kInflowHeldFraction * std::abs(m->mass);
       const double flowing = held ? target - m->held : target;
-      double u = 0.0;
-      if (h > kInflowMinDepth && flowing > 0.0) u = std::min(flowing / (dt * h), ucap);
-      inflow_now_[1] = u;
-      inflow_owed_new_ = target - u * dt * h;
+      double u = 0.0, depth = h;
+      if (h > kInflowMinDepth && flowing > 0.0) {
+        u = std::min(flowing / (dt * h), ucap);
+        if (u == ucap) depth = std::min(flowing / (dt * ucap), kInflowDeepen * h);
+      }
+      inflow_now_ = {depth, u};
+      inflow_owed_new_ = target - u * dt * depth;
     }
   }
   fill_velocity_ghosts(u_, w_);

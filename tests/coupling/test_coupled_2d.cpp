@@ -424,8 +424,9 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
   // both runs at other solver settings. Measured: none before issue 12's coupled 1D-tip fix of
   // the DAM; 2 cell-steps of one void at 1.30-1.35 s after it; with the exact 2D -> 1D
   // interface mass (Interface::settle) one cell for 5 steps, 1.3572-1.3608 s (3.6 ms of the
-  // run's ~2800 steps). Asserted: one void, closed within 10 steps (a void that stayed, the
-  // fault of issue 11 item 3, was 63 hole cells over 31 outputs).
+  // run's ~2800 steps); with the 1D -> 2D inflow at the DAM's velocity (kInflowDeepen) none.
+  // Asserted: one void, closed within 10 steps (a void that stayed, the fault of issue 11
+  // item 3, was 63 hole cells over 31 outputs).
   std::printf("[measured] hole cell-steps full %zu coupled %zu; coupled voids %zu, longest %zu "
               "steps; holes at outputs full %zu coupled %zu\n",
               la.holes, lb.holes, lb.voids, lb.longest, la.at_outputs, lb.at_outputs);

@@ -69,7 +69,9 @@ REST_SERIES = "rest_inflow.csv"  # the gate open for 0.2 s, then closed (written
 CASES = [
     # --- the shipped scenes themselves ---
     case("ndam_default", "setup2_ndam", {}),
-    case("coupled_default", "setup2_coupled", {}),
+    # the coupled cases pass since the exact 2D -> 1D mass and the 1D -> 2D inflow at the DAM's
+    # velocity (2026-12-01), and run in the default suite (1-3 s each)
+    case("coupled_default", "setup2_coupled", {}, default=True),
     # the wall-impact cell of ndam_default (4.74-4.81 m/s against the bound 4.48) with the
     # material share of partly filled surface cells (docs/validation.md, case 3): 4.01 m/s
     case("ndam_default_share", "setup2_ndam", {"N-DAM/Surface cell mass": "Material share"},
@@ -167,14 +169,14 @@ CASES = [
     case("dam_max_dt_1s", "setup2_dam", {"Time/Max time step": 1.0}, default=True),
     case("dam_cfl_0.5", "setup2_dam", {"DAM/CFL": 0.5}, default=True),
     # --- the coupled model 2D [0, 0.2] / 1D / 2D [0.7, 1] ---
-    case("coupled_my_1e4", "setup2_coupled", {"Rheology/Regularisation": 1e4}),
-    case("coupled_mc_1", "setup2_coupled", {"N-DAM/Friction regularisation": 1.0}),
+    case("coupled_my_1e4", "setup2_coupled", {"Rheology/Regularisation": 1e4}, default=True),
+    case("coupled_mc_1", "setup2_coupled", {"N-DAM/Friction regularisation": 1.0}, default=True),
     case("coupled_nu_0.3", "setup2_coupled", {"Rheology/Viscosity": 0.3}),
-    case("coupled_delta_0", "setup2_coupled", {"Material/Bed friction angle": 0.0}),
+    case("coupled_delta_0", "setup2_coupled", {"Material/Bed friction angle": 0.0}, default=True),
     case("coupled_fast_inflow", "setup2_coupled",
          {"Channel/Left boundary/Inflow depth": 0.008, "Channel/Left boundary/Inflow velocity": 5.0,
-          "Time/End time": 0.2}, bound=chute_bound(u_in=5.0)),
-    case("coupled_max_dt_1s", "setup2_coupled", {"Time/Max time step": 1.0}),
+          "Time/End time": 0.2}, bound=chute_bound(u_in=5.0), default=True),
+    case("coupled_max_dt_1s", "setup2_coupled", {"Time/Max time step": 1.0}, default=True),
 ]
 BY_NAME = {c["name"]: c for c in CASES}
 
