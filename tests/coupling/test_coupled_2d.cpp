@@ -427,9 +427,10 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
   // run's ~2800 steps); with the 1D -> 2D inflow at the DAM's velocity (kInflowDeepen) none.
   // Asserted: one void, closed within 10 steps (a void that stayed, the fault of issue 11
   // item 3, was 63 hole cells over 31 outputs).
-  std::printf("[measured] hole cell-steps full %zu coupled %zu; coupled voids %zu, longest %zu "
-              "steps; holes at outputs full %zu coupled %zu\n",
-              la.holes, lb.holes, lb.voids, lb.longest, la.at_outputs, lb.at_outputs);
+  std::printf("[measured] hole cell-steps full %zu coupled %zu; voids full %zu coupled %zu, "
+              "longest %zu / %zu steps; holes at outputs full %zu coupled %zu\n",
+              la.holes, lb.holes, la.voids, lb.voids, la.longest, lb.longest, la.at_outputs,
+              lb.at_outputs);
   EXPECT_EQ(la.holes, 0u);
   EXPECT_EQ(lb.at_outputs, 0u);
   EXPECT_LE(lb.voids, 1u);
