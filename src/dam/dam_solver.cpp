@@ -909,8 +909,8 @@ void DamSolver::accept() {
 }
 
 // Mass handed over at the left end between two steps (see the declaration). The cells are those
-// of the current grid from the left end: on the staggered grid the first is the half cell
-// [x0, x0 + dx/2] (weight 1/2, as mass() counts it). Positive mass goes into the first cell;
+// of the current grid from the left end: on the staggered grid the first is the end cell centred
+// at x0, of which mass() counts the half inside [x0, x0 + dx/2] (weight 1/2). Positive mass goes into the first cell;
 // a removal leaves every cell at least half its depth, so it never empties one or flips a sign.
 double DamSolver::take_interface_mass(double m, double u_dry) {
   if (h_.empty() || m == 0.0 || !std::isfinite(m)) return 0.0;

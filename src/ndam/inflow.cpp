@@ -30,7 +30,8 @@ namespace {
 // velocity took it, up to 1.5 |u_mean| + 0.1 m/s: the tip's first markers entered at 1.4 times
 // the DAM's tip speed and the first 2D columns were the fastest cells of every coupled run
 // (5.05 m/s against the 4.48 m/s bound of the free-slip case; docs/validation.md, "Stability
-// suite"). The mass per step it can take is the same, 1.5 h |u_mean| (+ the floor).
+// suite"). The mass a step can take is about the same: 1.5 h (|u_mean| + 0.1 m/s) dt against
+// h (1.5 |u_mean| + 0.1 m/s) dt before.
 constexpr double kInflowSpeedupFloor = 0.1;  // [m/s]
 constexpr double kInflowDeepen = 1.5;
 // Below this inflow depth the step takes nothing: a film of 0.1 mm (1/50 of the 5 mm cells of
