@@ -94,8 +94,10 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
                "counts (the 2D side: the markers that left); the difference is carried and "
                "handed to the DAM's first cells, the fraction dt / this of it after every step "
                "(0: all of it after every step), so that the coupled model's mass balance closes "
-               "to round-off (docs/numerics.md, 'Mass, 2D -> 1D')",
-               0.0, 1e6);
+               "to round-off (docs/numerics.md, 'Mass, 2D -> 1D'); at most 1 s: a slower hand-over "
+               "lets the DAM hold for the whole run mass that the 2D side still counts (a shipped "
+               "scene with 1e6 s held 3 % of its mass as carried)",
+               0.0, 1.0);
     add_enum(*pl, "Interface pressure", d.interface_pressure,
              "how the pressure of eq. (26), p = g cos(zeta)(h - z)(1 + K_act)/2, enters the first "
              "2D column behind a 1D-to-2D interface: Rheology: the column stays in the "

@@ -94,6 +94,29 @@ long long MarkerSet::remove_if(const std::function<bool(double, double)>& pred) 
   return n;
 }
 
+long long MarkerSet::take_back(long long n) {
+  if (n <= 0 || slab_.i0 != 0) return 0;
+  std::vector<std::size_t> first;  // markers of the first column
+  for (std::size_t j = 0; j < m_.size(); ++j)
+    if (m_[j].x < dx_) first.push_back(j);
+  const auto take = static_cast<std::size_t>(std::min<long long>(n, static_cast<long long>(first.size())));
+  if (take == 0) return 0;
+  // the `take` nearest to the face (ties by id, so that every run takes the same ones)
+  auto nearer = [&](std::size_t a, std::size_t b) {
+    return m_[a].x < m_[b].x || (m_[a].x == m_[b].x && m_[a].id < m_[b].id);
+  };
+  std::nth_element(first.begin(), first.begin() + static_cast<std::ptrdiff_t>(take - 1), first.end(),
+                   nearer);
+  std::vector<char> drop(m_.size(), 0);
+  for (std::size_t j = 0; j < take; ++j) drop[first[j]] = 1;
+  std::size_t w = 0;
+  for (std::size_t j = 0; j < m_.size(); ++j)
+    if (!drop[j]) m_[w++] = m_[j];
+  m_.resize(w);
+  injected_ -= static_cast<long long>(take);
+  return static_cast<long long>(take);
+}
+
 void MarkerSet::clear() {
   m_.clear();
   acc_.clear();

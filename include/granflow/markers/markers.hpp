@@ -113,6 +113,11 @@ class MarkerSet {
   long long seed_depth(const std::function<double(double x)>& h);
   /// Removes this rank's markers with pred(x, z) (counted in `removed`). Returns the number.
   long long remove_if(const std::function<bool(double x, double z)>& pred);
+  /// Takes back up to n markers through the inflow side: those of this rank nearest to x = 0 in
+  /// the first column (material that flows back out through an inflow face). They leave the
+  /// injected count, the inflow's net transfer, not the removed one (the outflow's). Returns how
+  /// many this rank took (0 on ranks that do not own the first column).
+  long long take_back(long long n);
   /// Removes all markers and resets the counters and inflow accumulators.
   void clear();
 
