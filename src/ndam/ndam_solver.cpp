@@ -386,7 +386,7 @@ core::Health NdamSolver::check() const {
           h.ok = false;
           h.quantity = names[q];
           h.value = vals[q];
-          h.x = (mac_.slab.i0 + i + 0.5) * dx;
+          h.x = cfg_.x0 + (mac_.slab.i0 + i + 0.5) * dx;  // channel coordinates
           h.reason = std::isfinite(vals[q]) ? core::kMaxVelocityReason : "not finite";
         }
     }
