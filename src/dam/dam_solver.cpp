@@ -52,7 +52,8 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
              {"Staggered", "Semi-discrete"});
     add_double(*pl, "CFL", d.cfl,
                "Courant number dt max(|u| + sqrt(beta h)) / dx; both time steppings are "
-               "stable up to 0.5",
+               "stable up to 0.5, but above about 0.4 a front on a dry bed moves with the "
+               "step sequence (the output times), not only with dt",
                1e-3, 0.5);
     add_enum(*pl, "Earth pressure", to_string(d.earth_pressure),
              "K: Savage-Hutter (active where u_x > 0, passive where u_x < 0, smoothed switch), "
