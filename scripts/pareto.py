@@ -43,7 +43,8 @@ FAMILIES = dict(cl.FAMILIES)
 FAMILIES["setup1"] = {"full": "setup1_ndam.xml", "static": "setup1_coupled.xml",
                       "apriori": "setup1_coupled.xml", "dynamic": "setup1_coupled.xml",
                       "length": 1.5}
-DAM_SCENES = {"setup1": "setup1_dam.xml", "setup2": "setup2_dam.xml", "lab_chute": None}
+DAM_SCENES = {"setup1": "setup1_dam.xml", "setup2": "setup2_dam.xml",
+              "lab_chute": "lab_chute_dam.xml"}
 
 METHODS = ["full", "static", "apriori", "dynamic", "dynamic_tight", "dynamic_loose", "dam"]
 THRESHOLDS = {"dynamic": None, "dynamic_tight": (0.05, 0.025), "dynamic_loose": (0.2, 0.1)}
