@@ -287,6 +287,7 @@ bool DomainManager::adapt(CoupledModel& model) {
   model.settle_interfaces();  // the reconnected interfaces start with nothing carried
   auto rebuilt = rebuild(parts, first, last - first + 1, sub, *factory_, mv.record);
   model.replace_parts(first, last - first + 1, std::move(rebuilt));
+  model.place_settle_leftovers();
   // what no part took stays in the run's ledger
   model.book_unplaced(mv.record.remainder_unplaced + mv.record.pending_lost);
   mv.after = describe(model.parts());

@@ -125,9 +125,15 @@ class CoupledModel final : public core::Stepper {
   /// Decomposition->Interface mass relaxation (Interface::settle).
   void set_interface_mass_relaxation(double seconds) { relaxation_ = seconds; }
   /// Hands every interface's carried mass to its DAM now (before the domain manager rebuilds
-  /// parts: reconnected interfaces start from nothing carried). What no DAM cell can take
-  /// (a removal from a nearly dry DAM) stays booked in the coupled model's ledger.
+  /// parts: reconnected interfaces start from nothing carried). What no DAM cell can take (a
+  /// removal from a nearly dry DAM) is kept, with the interface's position, for
+  /// place_settle_leftovers().
   void settle_interfaces();
+  /// After a rebuild: each leftover of settle_interfaces() goes to the interface now at its
+  /// position (carried on, settled by the relaxation as before), else to the DAM that now covers
+  /// its position (the converted columns hold the mass its DAM had taken ahead of the 2D
+  /// side); what neither can take stays booked in the ledger (mass_unplaced).
+  void place_settle_leftovers();
   /// Mass [m^2] that leaves the parts without leaving the channel and that no part can take (a
   /// move's unplaced marker remainder, the pending inflow of a vanished interface): kept in
   /// the run's ledger (mass_balance().current), reported as `mass_unplaced`.
@@ -158,6 +164,7 @@ class CoupledModel final : public core::Stepper {
   double relaxation_ = 0.0;
   double last_dt_ = 0.0;     // of the step in progress
   double unplaced_ = 0.0;    // book_unplaced() and what settle_interfaces() could not place
+  std::vector<std::array<double, 2>> settle_leftovers_;  // (x, mass) between settle and place
 };
 
 }  // namespace granflow::coupling
