@@ -33,7 +33,9 @@ struct FsCase {
   std::string surface_mass = "Full cell";  // 'Surface cell mass' ("Material share")
 };
 
-inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm = MPI_COMM_WORLD) {
+/// The box of `c`; from `state` (NdamSolver's state constructor) when one is given.
+inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm = MPI_COMM_WORLD,
+                                                 const ndam::NdamState* state = nullptr) {
   int ranks = 1;
   MPI_Comm_size(comm, &ranks);
   Teuchos::ParameterList n("N-DAM");
@@ -92,6 +94,9 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   auto cfg = ndam::NdamConfig::from_parameters(n, &user, ch, ranks);
   cfg.x0 = c.x0;
   const auto rheo = ndam::Rheology::from_parameters(r, &ruser, m);
+  if (state)
+    return std::make_unique<ndam::NdamSolver>(comm, cfg, rheo, ndam::NdamPhysics::from(m, ch),
+                                              *state);
   return std::make_unique<ndam::NdamSolver>(comm, cfg, rheo, ndam::NdamPhysics::from(m, ch));
 }
 

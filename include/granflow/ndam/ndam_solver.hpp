@@ -239,6 +239,7 @@ class NdamSolver final : public core::Stepper {
   double conv_w(int i, int k) const;
   void explicit_force(bool pressure_gradient, Field& fu, Field& fw) const;
   void predict_velocity(double dt, Field& us, Field& ws);
+  void fall_droplets(double dt, Field& us, Field& ws) const;  // Surface cells empty all round
   // --- projection.cpp: the pressure projection (eqs. 10, 14) ----------------------------------
   void assemble_pressure();
   void project(double dt);  // predictor, projection, pressure update into *_new_ (timed)
