@@ -28,21 +28,29 @@ void run_to(ndam::NdamSolver& s, double t_end, double dt_max) {
 
 }  // namespace
 
+// A Newtonian pool of the given depth in a closed box on a horizontal bed (no-slip walls and
+// bed, free-slip lid).
+static FsCase closed_pool(int nx, int nz, double lx, double lz, double depth) {
+  FsCase c;
+  c.nx = nx;
+  c.nz = nz;
+  c.lx = lx;
+  c.lz = lz;
+  c.slope_deg = 0.0;
+  c.depth = depth;
+  c.rheology = "Newtonian";
+  c.walls = {"No-slip", "No-slip", "No-slip", "Free-slip"};
+  c.left = c.right = "Wall";
+  return c;
+}
+
 // A free-surface pool at rest in a closed box (no slope) stays at rest and flat: the surface
 // cells take p = 0 and the Fluid cells below the hydrostatic pressure, so the projection finds
 // no flow. Tolerances: |u| < 1e-3 m/s after 0.3 s (gravity would give 3 m/s in that time, so
 // this is a balance to 3e-4 of the driving force) and the column depths stay equal to the
 // marker resolution dz / n (count-based depth: one marker row is dz / 4).
 TEST(NdamFreeSurface, PoolAtRestStaysFlat) {
-  FsCase c;
-  c.nx = 20;
-  c.nz = 10;
-  c.lx = 0.2;
-  c.slope_deg = 0.0;
-  c.depth = 0.055;
-  c.rheology = "Newtonian";
-  c.walls = {"No-slip", "No-slip", "No-slip", "Free-slip"};
-  c.left = c.right = "Wall";
+  const FsCase c = closed_pool(20, 10, 0.2, 0.1, 0.055);
   auto s = make_fs(c);
   const auto m0 = s->mass_balance();
   run_to(*s, 0.3, 0.01);
@@ -79,16 +87,7 @@ TEST(NdamFreeSurface, PoolAtRestStaysFlat) {
 // upper face, and the droplet loses half its speed (0.219 -> 0.170 m/s at 23 ms); at 60 ms it
 // falls at 0.255 m/s where g t is 0.584 m/s. Before fall_droplets it stayed at z0.
 TEST(NdamFreeSurface, DropletFallsFreely) {
-  FsCase c;
-  c.nx = 20;
-  c.nz = 20;
-  c.lx = 0.1;
-  c.lz = 0.1;
-  c.slope_deg = 0.0;
-  c.depth = 0.02;
-  c.rheology = "Newtonian";
-  c.walls = {"No-slip", "No-slip", "No-slip", "Free-slip"};
-  c.left = c.right = "Wall";
+  const FsCase c = closed_pool(20, 20, 0.1, 0.1, 0.02);
   auto st = make_fs(c)->export_state();
   const double dx = c.lx / c.nx, dz = c.lz / c.nz, z0 = 14.5 * dz;
   ndam::Marker drop;
