@@ -285,8 +285,19 @@ bool DomainManager::adapt(CoupledModel& model) {
   mv.t = t;
   mv.before = describe(parts);
   model.settle_interfaces();  // the reconnected interfaces start with nothing carried
+  // A 2D gate part holds the gate's fractional markers: inflow that has passed the gate but is
+  // not yet in the fields nor in the part's booked inflow. If the rebuilt gate part is not a 2D
+  // part from the same gate, the conversion hands that mass on (to the next 2D part's inflow or
+  // into a DAM), and the run books it as inflow here. Found by a hostile-user run: the gate
+  // part turned 1D and the ledger was 3.0e-5 m^2 (1.7e-3) short of the fields, which held
+  // h_in u_in t exactly.
+  const double gate_pending =
+      first == 0 && parts.front().ndam ? parts.front().ndam->inflow_pending() : 0.0;
   auto rebuilt = rebuild(parts, first, last - first + 1, sub, *factory_, mv.record);
+  const bool gate_kept = !rebuilt.empty() && rebuilt.front().ndam != nullptr &&
+                         rebuilt.front().x0 == parts.front().x0;
   model.replace_parts(first, last - first + 1, std::move(rebuilt));
+  if (first == 0 && !gate_kept) model.book_gate_inflow(gate_pending);
   model.place_settle_leftovers();
   // what no part took stays in the run's ledger
   model.book_unplaced(mv.record.remainder_unplaced + mv.record.pending_lost);

@@ -138,6 +138,10 @@ class CoupledModel final : public core::Stepper {
   /// move's unplaced marker remainder, the pending inflow of a vanished interface): kept in
   /// the run's ledger (mass_balance().current), reported as `mass_unplaced`.
   void book_unplaced(double m) { unplaced_ += m; }
+  /// Mass [m^2] that passed the channel's gate but was not yet in the fields when the gate's
+  /// part was rebuilt (a 2D gate's fractional markers, handed on by the conversion): booked as
+  /// the run's inflow, which counted only what the old part had injected.
+  void book_gate_inflow(double m) { retired_inflow_ += m; }
   static constexpr int kMaxSubsteps = 64;
   const DomainManager* domain_manager() const { return manager_.get(); }
   std::shared_ptr<const SubdomainFactory> factory() const { return factory_; }
