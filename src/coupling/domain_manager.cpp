@@ -65,7 +65,8 @@ DomainManager::DomainManager(const Decomposition& d,
                              params::str(d_.min_length) +
                              " m is below four slots of the Dynamic layout (4 x " +
                              params::str(slot_) +
-                             " m, the smallest subdomain either model is built with)");
+                             " m, the smallest subdomain either model is built with); allowed: "
+                             ">= " + params::str(4.0 * slot_) + " m");
   calm_since_.assign(static_cast<std::size_t>(nslots_), -1.0);
 }
 
