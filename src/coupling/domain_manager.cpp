@@ -295,8 +295,9 @@ bool DomainManager::adapt(CoupledModel& model) {
   const double gate_pending =
       first == 0 && parts.front().ndam ? parts.front().ndam->inflow_pending() : 0.0;
   auto rebuilt = rebuild(parts, first, last - first + 1, sub, *factory_, mv.record);
-  const bool gate_kept = !rebuilt.empty() && rebuilt.front().ndam != nullptr &&
-                         rebuilt.front().x0 == parts.front().x0;
+  // a 2D part at the gate again keeps the old one's accumulators (the rebuilt ends keep their
+  // positions): nothing was handed on
+  const bool gate_kept = rebuilt.front().ndam != nullptr;
   model.replace_parts(first, last - first + 1, std::move(rebuilt));
   if (first == 0 && !gate_kept) model.book_gate_inflow(gate_pending);
   model.place_settle_leftovers();

@@ -353,11 +353,13 @@ void NdamSolver::fall_droplets(double dt, Field& us, Field& ws) const {
     const int gi = mac_.slab.i0 + i;
     if (!cfg_.periodic_x() && (gi < 0 || gi >= nx)) continue;
     for (int k = 0; k < nz; ++k) {
+      // all four sides empty: not against the bed, the lid or an end wall (outside the box is
+      // not empty), so all four faces are inside the box
       if (mac_.gflag(gi, k) != CellFlag::Surface || mac_.mask(gi, k) != all) continue;
       us(i - 1, k) += dt * phys_.gx;
       us(i, k) += dt * phys_.gx;
-      if (k > 0) ws(i, k - 1) += dt * phys_.gz;
-      if (k + 1 < nz) ws(i, k) += dt * phys_.gz;
+      ws(i, k - 1) += dt * phys_.gz;
+      ws(i, k) += dt * phys_.gz;
     }
   }
 }
