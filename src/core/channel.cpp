@@ -132,7 +132,11 @@ Teuchos::RCP<const Teuchos::ParameterList> Channel::getValidParameters() {
     add_double(left, "Inflow depth", d.left.inflow.depth(0.0),
                "h_in [m]: opening of the silo gate (Inflow only)", 0.0, 1e3);
     add_double(left, "Inflow velocity", d.left.inflow.velocity(0.0),
-               "u_in [m/s]: mean inflow velocity through the gate (Inflow only)", -1e3, 1e3);
+               "u_in [m/s]: mean inflow velocity through the gate (Inflow only). The discharge "
+               "h_in u_in enters exactly; in the DAM a subcritical gate (u_in below the wave "
+               "speed of h_in) prescribes only that discharge and takes its depth from the "
+               "channel: the critical depth over a dry or accelerating channel "
+               "(docs/numerics.md)", -1e3, 1e3);
     add_string(left, "Inflow series file", "",
                "CSV file with columns t,h,u (header allowed) giving a time-dependent inflow, "
                "linear in time and held after its last row; relative to the scene file. "

@@ -256,18 +256,25 @@ bool DamSolver::wall_centred(int j, int n, bool on_b) const {
 // out, and the gate cell reached h = 3.1 m, u = -323 m/s (docs/validation.md, "Stability suite").
 //
 // Rule. R_0 = v_0 - 2 c_0 of the end cell (the interior side; 0 if dry), R_in = v_in - 2 c_in of
-// the user's state:
-//  - R_0 >= R_in (the interior does not push back harder than the gate state carries: a dry or
-//    shallow channel accelerating away from the gate, or the steady inflow itself): the user's
-//    (h_in, u_in), as before. Every shipped scene stays here (bit for bit).
-//  - R_0 < R_in (the channel is backed up to the gate): the gate keeps the prescribed
-//    *discharge* q_in = h_in v_in, which is what a gate fed by a silo delivers and what the
-//    user's mass flux is, and takes the depth from the outgoing invariant:
+// the user's state, c_c = cbrt(q_in a^2) the critical speed of the discharge q_in = h_in v_in:
+//  - a subcritical gate state (0 < v_in < c_in) prescribes the *discharge* q_in only, which is
+//    what a gate fed by a silo delivers and what the user's mass flux is; the depth comes from
+//    the outgoing invariant,
 //      q_in / h_b - 2 sqrt(beta h_b) = R_0,   u_b = q_in / h_b,
-//    whose root is unique (the left side falls monotonically in h_b) and h_b > h_in, so
-//    v_b < v_in: a subcritical inflow gate stays subcritical. At R_0 = R_in the two branches
-//    agree (continuous switch). A supercritical gate drowned by a bore keeps its state unless
-//    the backed-up state is subcritical (then its R_0 really reaches the gate).
+//    whose subcritical root exists while R_0 <= -c_c (the left side falls monotonically in h_b
+//    down to the critical depth): deeper than h_in where the channel backs up to the gate
+//    (R_0 < R_in), shallower where it draws the inflow on. Where it draws harder than any
+//    subcritical state of q_in can follow (R_0 > -c_c, a dry or accelerating channel) the gate
+//    is a hydraulic control: the critical state h_c = (q_in / a)^(2/3), u_c = c_c. The branches
+//    agree at R_0 = -c_c (continuous, with a kink). Before (2026-12-02) the user's (h_in, u_in)
+//    held whenever R_0 >= R_in: a deep slow gate over a dry bed (0.2 m at 0.01 m/s) then fed
+//    the earth pressure of its whole opening with the mass flux of q_in, and the first cells
+//    ran at 50-270 m/s (DamInflow.DeepSlowGateOverADryBedIsAHydraulicControl); the paper's gate
+//    (Fr ~ 0.75) is a control too, 0.0333 m at 0.66 m/s in its first cell against 0.0375 m at
+//    0.59 m/s.
+//  - a supercritical gate state (v_in >= c_in): both characteristics enter and the user's state
+//    holds unless the channel is backed up to it (R_0 < R_in) and the root above is subcritical
+//    (a gate drowned by a bore whose R_0 really reaches the gate).
 // The gate never lets material out: where the interior flows towards it (v_0 < 0, the
 // reflected wave arriving), R_0 < R_in and the gate state is the one of the same outgoing
 // invariant that still carries q_in in, deeper and slower (v_b in (0, v_in]); for a closed gate
@@ -284,7 +291,18 @@ std::array<double, 2> DamSolver::gate_state(const DamBoundary& b, int side, doub
   const double R_in = v_in - 2.0 * a * std::sqrt(h_in);
   const bool wet = h_end > cfg_.dry_depth;
   const double R_0 = wet ? sigma * hu_end / h_end - 2.0 * a * std::sqrt(h_end) : 0.0;
-  if (!(R_0 < R_in)) return s;
+  // A subcritical gate state (0 < v_in < c_in) prescribes the discharge only. The depth comes
+  // from the interior's R_0 (the root below, deeper or shallower than h_in) as long as a
+  // subcritical state carrying q_in has that invariant: R_0 <= R_c = -c_c, c_c = cbrt(q a^2)
+  // the critical speed of q_in. Where the interior draws harder (a dry channel, or one
+  // accelerating away), the gate is a hydraulic control: the critical state of q_in.
+  const bool subcritical = q > 0.0 && v_in < a * std::sqrt(h_in);
+  const double c_c = std::cbrt(q * a * a), h_c = (c_c / a) * (c_c / a);
+  if (subcritical) {
+    if (!wet || R_0 > -c_c) return {h_c, sigma * c_c};
+  } else if (!(R_0 < R_in)) {
+    return s;
+  }
   // q / h - 2 a sqrt(h) = R_0 in s = sqrt(h): g(s) = 2 a s^3 + R_0 s^2 - q = 0. g is convex and
   // increasing right of its root, and s_0 = max(-R_0 / 2a, 0) + cbrt(q / 2a) has g(s_0) >= 0,
   // so Newton from s_0 descends monotonically onto the root.
@@ -297,7 +315,10 @@ std::array<double, 2> DamSolver::gate_state(const DamBoundary& b, int side, doub
     r = next;
   }
   const double h_b = r * r, v_b = h_b > 0.0 ? q / h_b : 0.0;
-  if (!(v_b < a * r)) return s;  // still supercritical: both characteristics enter
+  if (!(v_b < a * r)) {  // supercritical: both characteristics enter
+    if (subcritical) return {h_c, sigma * c_c};  // (R_0 = R_c to round-off: the control)
+    return s;
+  }
   return {h_b, sigma * v_b};
 }
 

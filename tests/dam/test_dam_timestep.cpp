@@ -137,6 +137,58 @@ TEST(DamInflow, SubcriticalGateBackedUpByTheWallKeepsItsDischarge) {
 }
 
 // ---------------------------------------------------------------------------------------------
+// A deep, slow gate over a dry bed: a hydraulic control, not a jet
+// ---------------------------------------------------------------------------------------------
+// Found by an independent run (docs/validation.md, "DAM fronts and the Courant number"): a gate
+// h_in = 0.2 m deep letting out u_in = 0.01 m/s (Fr = 0.007) on a 25 deg chute, and 0.06 m at
+// 0.05 m/s on 50 deg, turned into a sheet 4e-5 m deep at 46-50 m/s (140 m/s at its fastest) in
+// the first millisecond. With both h_in and u_in imposed the gate face carried the momentum
+// flux q_in u_in + beta h_in^2 / 2 of the whole opening with the mass flux of q_in = 0.002
+// m^2/s, and the cells behind it got u ~ beta h_in^2 / (2 q_in). A subcritical gate prescribes
+// the discharge only; over a channel that draws harder than a subcritical state of q_in can give
+// (here: dry) the gate is a hydraulic control, the critical state of q_in, h_c = (q_in / a)^(2/3),
+// u_c = c_c = a sqrt(h_c) (DamSolver::gate_state). Asserted for both time steppings, to 1 s, at
+// every step:
+//  - no cell with material (h > 1e-12 m) faster than the bound u_in + 2 c_in + sqrt(2 g L
+//    sin(zeta)): the front of a dam break of the whole opening (Ritter, u_in + 2 c_in with
+//    c_in = sqrt(g cos(zeta) h_in), K = 1) plus a frictionless fall along the chute, which no
+//    release from this gate can exceed (5.56 and 5.16 m/s here);
+//  - what enters is q_in t to 1e-12 (the control's face carries h_c c_c = q_in to a rounding).
+TEST(DamInflow, DeepSlowGateOverADryBedIsAHydraulicControl) {
+  struct Case {
+    double zeta, h_in, u_in;
+  };
+  for (const Case c : {Case{25.0, 0.2, 0.01}, Case{50.0, 0.06, 0.05}}) {
+    for (TimeStepping ts : kBothTimeSteppings) {
+      const double L = 1.0, t_end = 1.0, q_in = c.h_in * c.u_in;
+      const auto phys = incline(c.zeta, 22.0, 33.0, EarthPressure::SavageHutter);
+      DamSolver dam(0.0, L, config(400, Scheme::Minmod, EarthPressure::SavageHutter, 0.4, ts),
+                    phys, inflow(c.h_in, c.u_in), boundary(BoundaryType::Outflow));
+      dam.set_state([](double) { return 0.0; }, [](double) { return 0.0; });
+      const double bound = c.u_in + 2.0 * std::sqrt(phys.g_cos * c.h_in) +
+                           std::sqrt(2.0 * kG * L * std::sin(granflow::core::deg2rad(c.zeta)));
+      double umax = 0.0, t_umax = 0.0, worst_in = 0.0;
+      advance(dam, t_end, [&](const DamSolver& d) {
+        for (std::size_t k = 0; k < d.h().size(); ++k)
+          if (d.h()[k] > 1e-12 && std::abs(d.hu()[k] / d.h()[k]) > umax) {
+            umax = std::abs(d.hu()[k] / d.h()[k]);
+            t_umax = d.time();
+          }
+        const auto mb = d.mass_balance();
+        worst_in = std::max(worst_in, std::abs(mb.inflow - q_in * d.time()) / (q_in * d.time()));
+      });
+      std::printf("[measured] deep slow gate h_in %.2f m, u_in %.2f m/s on %.0f deg (%s, N=400, "
+                  "to %.0f s, %ld steps): max |u| %.3f m/s at t = %.4f s (bound %.2f), gate cell "
+                  "h %.4f m, u %.3f m/s, max rel |in - q_in t| %.1e\n",
+                  c.h_in, c.u_in, c.zeta, name(ts), t_end, dam.steps(), umax, t_umax, bound,
+                  dam.h()[0], dam.hu()[0] / dam.h()[0], worst_in);
+      EXPECT_LT(umax, bound) << name(ts) << " zeta " << c.zeta;
+      EXPECT_LT(worst_in, 1e-12) << name(ts) << " zeta " << c.zeta;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
 // A time-dependent inflow: the injected mass converges to the integral of h_in u_in
 // ---------------------------------------------------------------------------------------------
 // h(t) = h_in (1 + 0.5 sin(2 pi t / 0.05)), u(t) = u_in (1 + 0.3 cos(2 pi t / 0.04)) to t = 0.1 s,
@@ -191,17 +243,22 @@ TEST(DamInflow, SeriesInflowMassConvergesAtSecondOrder) {
 // Setup II (200 cells) to t = 0.05 s with Max time step 1e-3 (the stable step, ~1e-3 s), 1e-4,
 // 1e-5 and 1e-6 s; L1 distance of h (primary grid) to the dt = 1e-6 s run, relative to the mass.
 // Semi-discrete: the scheme's viscosity does not depend on dt, so the profile converges:
-// measured 2.1e-2 / 1.0e-3 / 1.3e-4 at 1e-3 / 1e-4 / 1e-5 s (ratios 20 and 7.7 per decade).
-// Asserted: each decade shrinks the distance by > 3 and the 1e-5 s run is within 3e-4 of the
-// 1e-6 s run.
+// measured 6.8e-3 / 1.9e-4 / 1.0e-4 at 1e-3 / 1e-4 / 1e-5 s (2.1e-2 / 1.0e-3 / 1.3e-4 before the
+// gate became a hydraulic control, DeepSlowGateOverADryBedIsAHydraulicControl). The gate state
+// now switches between the control (the critical state of q_in) and the root of the interior's
+// invariant as the end cell's R_0 crosses -c_c: continuous, with a kink, so the convergence is
+// about first order with a scatter of a few between neighbouring dt (1e-4 relative at 1e-5 and
+// 2e-5 s, 2.7e-5 at 3e-5 s, 1.3e-7 at 3e-6 s against the 1e-6 s run). Asserted: each decade
+// shrinks the distance, two decades by > 30 (first order: 100), and the 1e-5 s run is within
+// 3e-4 of the 1e-6 s run.
 // Staggered (the paper's scheme): its averaging onto the shifted grid in every step diffuses by
 // O(dx^2) where the limiter clips, whatever dt, i.e. like dx^2 / dt: the profile does NOT
 // converge as dt -> 0 (measured below and in docs/validation.md: 30 % at dt = stable / 400 in
-// Setup II to 0.1 s; here 0.97 / 0.86 / 0.51 of the mass at 1e-3 / 1e-4 / 1e-5 s, the thin
+// Setup II to 0.1 s; here 0.95 / 0.84 / 0.51 of the mass at 1e-3 / 1e-4 / 1e-5 s, the thin
 // stream's front spreading further with every extra step). Asserted for it what the project
 // asks of every result, that a second dt near the stable step changes it by no more than a
 // stated, measured amount: dt capped at half the stable step moves the profile by < 4e-2
-// (measured 2.0e-2).
+// (measured 1.6e-2; 2.0e-2 before the gate's control).
 std::vector<double> setup2_profile(TimeStepping ts, double t_end, double cap) {
   auto dam = setup2(200, ts, inflow(kHin, kUin));
   std::vector<double> h, hu;
@@ -230,8 +287,9 @@ TEST(DamTimeStep, ProfileAgainstThreeDecadesOfDt) {
                 "dt = 1e-3 / 1e-4 / 1e-5 s: %.2e / %.2e / %.2e\n",
                 name(ts), d[0], d[1], d[2]);
     if (ts == TimeStepping::SemiDiscrete) {
-      EXPECT_GT(d[0] / d[1], 3.0);
-      EXPECT_GT(d[1] / d[2], 3.0);
+      EXPECT_GT(d[0], d[1]);
+      EXPECT_GT(d[1], d[2]);
+      EXPECT_GT(d[0] / d[2], 30.0);
       EXPECT_LT(d[2], 3e-4);
     } else {
       auto dam = setup2(200, ts, inflow(kHin, kUin));
@@ -254,7 +312,12 @@ TEST(DamTimeStep, ProfileAgainstThreeDecadesOfDt) {
 // needs a surface slope h_x >= (tan zeta - tan delta)/K_pas = 0.258, and material that the
 // shock adds can only raise the deposit near the wall by moving through it (docs/validation.md:
 // 0.13-0.2 m/s behind the shock, < 0.06 m/s within 0.1 m of the wall). With the gate closed
-// linearly between 1 and 1.05 s the last material arrives by ~1.8 s. Asserted from t = 2 s to
+// linearly between 1 and 1.05 s the last material arrives by ~1.8 s; the gate is a hydraulic
+// control while it closes (DamInflow.DeepSlowGateOverADryBedIsAHydraulicControl: the critical
+// state of the falling q_in, whose speed c_c falls with it), so the last, slowest material
+// reaches the deposit's upstream margin later, and the margin (x = 0.76-0.79 m, 5-28 mm deep)
+// slides back upslope at up to 0.07 m/s until t = 2.025 s (staggered; before the control it
+// had stopped by 2 s). Asserted from t = 2.1 s to
 // 4 s at every step (400 cells): mass to round-off; staggered scheme: every cell deeper than
 // 4 mm at rest (hu == 0 exactly), and what still moves (the upstream margin of the deposit,
 // thinner than 4 mm, where the at-rest smoothing of the staggered averaging spreads material
@@ -269,7 +332,7 @@ TEST(DamDeposit, SetupIIDepositComesToRestWhenTheGateCloses) {
   };
   for (TimeStepping ts : kBothTimeSteppings) {
     auto dam = setup2(400, ts, inflow(gate));
-    advance(dam, 2.0);
+    advance(dam, 2.1);
     const double m_a = dam.mass();
     double h_moving = 0.0, m_moving = 0.0, u_deep = 0.0;
     advance(dam, 4.0, [&](const DamSolver& d) {
@@ -282,7 +345,7 @@ TEST(DamDeposit, SetupIIDepositComesToRestWhenTheGateCloses) {
       }
       m_moving = std::max(m_moving, m);
     });
-    std::printf("[measured] Setup II, gate closed at 1-1.05 s, 2-4 s (%s, N=400): deepest moving "
+    std::printf("[measured] Setup II, gate closed at 1-1.05 s, 2.1-4 s (%s, N=400): deepest moving "
                 "cell %.2e m, moving mass <= %.2e of %.4e m^2, max |u| where h > 4 mm %.1e m/s, "
                 "rel. mass change %.1e, depth at the wall %.4f m\n",
                 name(ts), h_moving, m_moving / m_a, m_a, u_deep, dam.mass() / m_a - 1.0,
