@@ -100,10 +100,22 @@ void NdamSolver::advect_markers(double dt) {
 // Flags of the markers m (collective): every rank gathers the marker counts of the whole box and
 // applies the flag rule (MacLayout::classify, the rule classify_cell of grid.hpp).
 void NdamSolver::update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
-                              std::vector<std::uint8_t>& mask) const {
+                              std::vector<std::uint8_t>& mask,
+                              std::pair<double, int>* deepest) const {
   const auto counts = m.cell_counts();
   std::vector<double> local(counts.begin(), counts.end());
-  mac_.classify(mac_.gather_columns(local), flags, mask);
+  const auto all = mac_.gather_columns(local);
+  mac_.classify(all, flags, mask);
+  if (deepest) {
+    const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
+    const double per_marker = m.marker_area() / cfg_.grid.dx();
+    *deepest = {0.0, -1};
+    for (int gi = 0; gi < nx; ++gi) {
+      double n = 0.0;
+      for (int k = 0; k < nz; ++k) n += all[static_cast<std::size_t>(gi * nz + k)];
+      if (n * per_marker > deepest->first) *deepest = {n * per_marker, gi};
+    }
+  }
 }
 
 // Normal-stress condition of the free surface (NaSt2D): p = 2 nu_eff n.D.n in a Surface cell,

@@ -358,7 +358,7 @@ void NdamSolver::step(double dt) {
     const auto tm = Clock::now();
     advect_markers(t_new_ - t_);
     // 8. Fluid/Surface/Empty from the new markers
-    update_flags(*markers_new_, flags_new_, mask_new_);
+    update_flags(*markers_new_, flags_new_, mask_new_, &deepest_new_);
     stats_.step_markers = detail::seconds_since(tm);
   }
 }
@@ -396,6 +396,25 @@ core::Health NdamSolver::check() const {
     h.ok = false;
     h.quantity = "u";
     h.reason = std::string("not finite or ") + core::kMaxVelocityReason + " on another rank";
+  }
+  // A column whose material reaches the top row of the box: the free surface has met the lid,
+  // so the flow is no longer the free-surface flow of the model (a deposit deeper than the
+  // box is capped and its markers packed into the top cells: Setup II at 5 mm to 1.5 s in the
+  // 0.15 m box held a wall column of 0.1525 m, mass kept, depth wrong). The depth is the
+  // markers' (count times area over dx, every marker of the column), the same on all ranks
+  // (gathered counts): half a cell below the top of the box is the limit, where the column's
+  // surface enters the top row's upper half.
+  if (h.ok && cfg_.free_surface && deepest_new_.second >= 0 &&
+      deepest_new_.first > cfg_.grid.lz - 0.5 * cfg_.grid.dz()) {
+    h.ok = false;
+    h.quantity = "material depth";
+    h.value = deepest_new_.first;
+    h.x = cfg_.x0 + (deepest_new_.second + 0.5) * dx;
+    h.reason = "the material of the column reaches the top of the 2D box (depth " +
+               detail::gstr(deepest_new_.first) + " m against N-DAM->Height = " +
+               detail::gstr(cfg_.grid.lz) + " m; allowed: at most Height - dz / 2 = " +
+               detail::gstr(cfg_.grid.lz - 0.5 * cfg_.grid.dz()) +
+               " m): raise N-DAM->Height (and Cells z with it)";
   }
   // The nonlinear pressure system: a Newton solve that did not converge stops the run (the
   // NOX stats are reduced over all ranks, so the decision is collective).

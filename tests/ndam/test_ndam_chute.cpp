@@ -121,6 +121,33 @@ TEST(NdamFreeSurface, DropletFallsFreely) {
   EXPECT_GE(in_first_cell, 20);  // the case tested: a fall of most of a cell from rest
 }
 
+// Material that reaches the top of the box stops the run (NdamSolver::check): the free surface
+// has met the lid, and a deposit deeper than the box would be capped with its markers packed
+// into the top cells (Setup II at 5 mm to 1.5 s in its 0.15 m box completed with a 0.1525 m wall
+// column, mass kept, depth wrong). Pools at rest in a 0.1 m box of 10 mm cells, 4 x 4 markers
+// per cell (one marker row is 2.5 mm of depth): 9 cm deep (the surface in the top cell's lower
+// half) runs 0.1 s; 9.75 cm, 2.5 mm above the limit Height - dz / 2 = 9.5 cm, stops in its
+// first step with the quantity "material depth", its value the markers' depth to one marker row,
+// at a column inside the box.
+TEST(NdamFreeSurface, MaterialAtTheTopOfTheBoxStopsTheRun) {
+  {
+    auto s = make_fs(closed_pool(20, 10, 0.2, 0.1, 0.09));
+    run_to(*s, 0.1, 0.01);
+    EXPECT_GT(s->time(), 0.1 - 1e-12);
+  }
+  auto s = make_fs(closed_pool(20, 10, 0.2, 0.1, 0.0975));
+  s->step(0.01);
+  const auto h = s->check();
+  std::printf("[measured] pool 9.75 cm deep in a 10 cm box: ok %d, %s = %.5f m at x = %.4f m: %s\n",
+              h.ok ? 1 : 0, h.quantity.c_str(), h.value, h.x, h.reason.c_str());
+  EXPECT_FALSE(h.ok);
+  EXPECT_EQ(h.quantity, "material depth");
+  EXPECT_NEAR(h.value, 0.0975, 0.0025);
+  EXPECT_GT(h.x, 0.0);
+  EXPECT_LT(h.x, 0.2);
+  EXPECT_NE(h.reason.find("N-DAM->Height"), std::string::npos);
+}
+
 // A Drucker-Prager layer released from rest on a periodic incline with a Coulomb bed (issue 11
 // item 1): with sin(phi) > tan(delta) the basal friction yields before the material does, and
 // the layer slides as a rigid plug following the law of the model's own regularised friction

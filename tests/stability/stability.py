@@ -44,10 +44,17 @@ H_BOX = 0.15  # [m] the 2D box height of the Setup II scenes
 
 # The three Setup II scenes at their shipped grids (5 mm in 2D and in the coupled model's 1D
 # part, 2.5 mm in the DAM), to t = 0.75 s (the paper's time), outputs every 0.05 s.
+# The 2D box is 0.3 m high (60 cells of 5 mm; shipped: 0.15 m): several variants build a
+# deposit deeper than 0.15 m by 0.75 s (0.15-0.19 m with delta = 0, phi = 1, 85 deg, nu = 1e-5),
+# which the shipped box capped, and since 2026-12-02 a column that reaches the top of the box
+# stops the run (exit 3). The speed bound keeps H_BOX = 0.15 m: the material enters below the
+# gate's 0.06 m and cannot start higher, so a fall over 0.15 m still bounds it.
 GRID = {
-    "setup2_ndam": {"Time/End time": 0.75, "Output/Interval": 0.05},
+    "setup2_ndam": {"Time/End time": 0.75, "Output/Interval": 0.05, "N-DAM/Height": 0.3,
+                    "N-DAM/Cells z": 60},
     "setup2_dam": {"Time/End time": 0.75, "Output/Interval": 0.05},
-    "setup2_coupled": {"Time/End time": 0.75, "Output/Interval": 0.05},
+    "setup2_coupled": {"Time/End time": 0.75, "Output/Interval": 0.05, "N-DAM/Height": 0.3,
+                       "N-DAM/Cells z": 60},
 }
 
 def chute_bound(u_in=0.37, slope=50.0, length=1.0, height=H_BOX):
@@ -115,7 +122,12 @@ CASES = [
           "Channel/Left boundary/Inflow series file": REST_SERIES, "Time/End time": 4.0, "Output/Interval": 0.1},
          outcome="rest", t_rest=2.5, u_rest=0.01, bound=chute_bound(slope=20)),
     # --- friction angles ---
-    case("ndam_delta_0", "setup2_ndam", {"Material/Bed friction angle": 0.0}),
+    # delta = 0 makes the wall frictionless too (its Coulomb angle is the bed's): the layer runs
+    # up the wall at impact like a frictionless jet, u^2 / (2 g cos(zeta)) = 1.3 m for 4.1 m/s,
+    # so the box is 1.5 m high (300 cells): in 0.3 m the jet reaches the top at 0.73 s (stop,
+    # exit 3); the shipped 0.15 m box capped it (wall column 0.148 m, "completed")
+    case("ndam_delta_0", "setup2_ndam", {"Material/Bed friction angle": 0.0,
+                                          "N-DAM/Height": 1.5, "N-DAM/Cells z": 300}),
     case("ndam_delta_phi", "setup2_ndam", {"Material/Bed friction angle": 33.0}),
     case("ndam_phi_1", "setup2_ndam",
          {"Material/Internal friction angle": 1.0, "Material/Bed friction angle": 1.0}),
@@ -124,11 +136,11 @@ CASES = [
     #     one, u_in = 5 m/s through 8 mm: Fr = u / sqrt(g h cos(zeta)) = 22 (both at 2.5 / 5 mm,
     #     to 0.2 s, where the layer has crossed the chute) ---
     case("ndam_thin_film", "setup2_ndam",
-         {"Channel/Left boundary/Inflow depth": 0.002, "N-DAM/Cells x": 400, "N-DAM/Cells z": 60,
+         {"Channel/Left boundary/Inflow depth": 0.002, "N-DAM/Cells x": 400, "N-DAM/Cells z": 120,
           "Time/End time": 0.2}),
     case("ndam_fast_inflow", "setup2_ndam",
          {"Channel/Left boundary/Inflow depth": 0.008, "Channel/Left boundary/Inflow velocity": 5.0,
-          "N-DAM/Cells x": 200, "N-DAM/Cells z": 30, "Time/End time": 0.2},
+          "N-DAM/Cells x": 200, "N-DAM/Cells z": 60, "Time/End time": 0.2},
          bound=chute_bound(u_in=5.0)),
     # --- Bingham yield stress 1 Pa to 10 kPa ---
     case("ndam_bingham_1Pa", "setup2_ndam",
@@ -176,7 +188,9 @@ CASES = [
     case("coupled_my_1e4", "setup2_coupled", {"Rheology/Regularisation": 1e4}, default=True),
     case("coupled_mc_1", "setup2_coupled", {"N-DAM/Friction regularisation": 1.0}, default=True),
     case("coupled_nu_0.3", "setup2_coupled", {"Rheology/Viscosity": 0.3}),
-    case("coupled_delta_0", "setup2_coupled", {"Material/Bed friction angle": 0.0}, default=True),
+    case("coupled_delta_0", "setup2_coupled", {"Material/Bed friction angle": 0.0,
+                                                "N-DAM/Height": 1.5, "N-DAM/Cells z": 300},
+         default=True),  # the box: see ndam_delta_0
     case("coupled_fast_inflow", "setup2_coupled",
          {"Channel/Left boundary/Inflow depth": 0.008, "Channel/Left boundary/Inflow velocity": 5.0,
           "Time/End time": 0.2}, bound=chute_bound(u_in=5.0), default=True),

@@ -63,6 +63,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace granflow::ndam {
@@ -226,8 +227,11 @@ class NdamSolver final : public core::Stepper {
   double surface_height(int gi, int k) const;
   void apply_free_surface(Field& u, Field& w) const;
   void advect_markers(double dt);
+  /// Flags of markers m; `deepest` (if given) gets the deepest column's material depth [m]
+  /// (marker count times marker area over dx) and its global column.
   void update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
-                    std::vector<std::uint8_t>& mask) const;
+                    std::vector<std::uint8_t>& mask,
+                    std::pair<double, int>* deepest = nullptr) const;
   void update_profile_cache();
   // --- viscosity.cpp (eqs. 4-6) ---------------------------------------------------------------
   void update_viscosity(const Field& p_yield);
@@ -278,6 +282,7 @@ class NdamSolver final : public core::Stepper {
   std::unique_ptr<MarkerSet> markers_, markers_new_;
   std::vector<CellFlag> flags_new_;
   std::vector<std::uint8_t> mask_new_;
+  std::pair<double, int> deepest_new_{0.0, -1};  // deepest column of the tentative markers
   MarkerMass marker_mass_, marker_mass_new_;  // of the current / tentative markers
   double mass0_ = 0.0;
   std::vector<double> col_h_, col_u_, col_w_;  // column states of the whole box (every rank)
