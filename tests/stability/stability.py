@@ -130,8 +130,9 @@ CASES = [
                                           "N-DAM/Height": 1.5, "N-DAM/Cells z": 300}),
     case("ndam_delta_phi", "setup2_ndam", {"Material/Bed friction angle": 33.0}),
     case("ndam_phi_1", "setup2_ndam",
-         {"Material/Internal friction angle": 1.0, "Material/Bed friction angle": 1.0}),
-    case("ndam_phi_60", "setup2_ndam", {"Material/Internal friction angle": 60.0}),
+         {"Material/Internal friction angle": 1.0, "Material/Bed friction angle": 1.0,
+          "N-DAM/Height": 1.5, "N-DAM/Cells z": 300}),  # nearly frictionless: see ndam_delta_0
+    case("ndam_phi_60", "setup2_ndam", {"Material/Internal friction angle": 60.0}, default=True),
     # --- inflow: a 2 mm film (at 2.5 mm cells: below one cell it is not resolved) and a fast
     #     one, u_in = 5 m/s through 8 mm: Fr = u / sqrt(g h cos(zeta)) = 22 (both at 2.5 / 5 mm,
     #     to 0.2 s, where the layer has crossed the chute) ---
@@ -144,7 +145,7 @@ CASES = [
          bound=chute_bound(u_in=5.0)),
     # --- Bingham yield stress 1 Pa to 10 kPa ---
     case("ndam_bingham_1Pa", "setup2_ndam",
-         {"Rheology/Model": "Bingham", "Rheology/Yield stress": 1.0 * YS}),
+         {"Rheology/Model": "Bingham", "Rheology/Yield stress": 1.0 * YS}, default=True),
     case("ndam_bingham_10kPa", "setup2_ndam",
          {"Rheology/Model": "Bingham", "Rheology/Yield stress": 1e4 * YS}),
     # --- time step controls ---
