@@ -270,8 +270,8 @@ bool DamSolver::wall_centred(int j, int n, bool on_b) const {
 //    held whenever R_0 >= R_in: a deep slow gate over a dry bed (0.2 m at 0.01 m/s) then fed
 //    the earth pressure of its whole opening with the mass flux of q_in, and the first cells
 //    ran at 50-270 m/s (DamInflow.DeepSlowGateOverADryBedIsAHydraulicControl); the paper's gate
-//    (Fr ~ 0.75) is a control too, 0.0333 m at 0.66 m/s in its first cell against 0.0375 m at
-//    0.59 m/s.
+//    (u_in / c_in = 0.44 with K(0) = 1.84) is a control too, 0.0333 m at 0.66 m/s in its first
+//    cell against 0.0375 m at 0.59 m/s.
 //  - a supercritical gate state (v_in >= c_in): both characteristics enter and the user's state
 //    holds unless the channel is backed up to it (R_0 < R_in) and the root above is subcritical
 //    (a gate drowned by a bore whose R_0 really reaches the gate).

@@ -22,6 +22,8 @@ class InflowSeries {
   double depth(double t) const;
   double velocity(double t) const;
   bool is_constant() const { return t_.size() <= 1; }
+  /// The deepest opening of the series (its largest h row).
+  double max_depth() const;
 
  private:
   double interp(const std::vector<double>& v, double t) const;
