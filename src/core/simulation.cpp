@@ -669,11 +669,14 @@ int Simulation::advance(const io::Checkpoint& ck) {
       std::ostringstream os;
       os << hl.reason << ": " << hl.quantity << " = " << hl.value << " at x = " << hl.x
          << " m, in the step from t = " << t << " s with dt = " << dt << " s";
-      write_summary("diverged", os.str(), kDiverged);
+      // a limit of the scene (hl.limit: the top of the 2D box) stops the run like a divergence,
+      // but says what it is
+      write_summary(hl.limit ? "stopped" : "diverged", os.str(), kDiverged);
       if (io_rank())
-        std::cerr << "\ngranflow: run diverged: " << os.str()
-                  << "; the last good output and checkpoint are kept in " << rc_.directory
-                  << "\n";
+        std::cerr << (hl.limit ? "\ngranflow: run stopped at a limit of the scene: "
+                               : "\ngranflow: run diverged: ")
+                  << os.str() << "; the last good output and checkpoint are kept in "
+                  << rc_.directory << "\n";
       return kDiverged;
     }
     model_->accept();

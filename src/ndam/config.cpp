@@ -268,7 +268,7 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                    "the box is periodic only along the slope; allowed on Bottom/Top: No-slip, "
                    "Free-slip, Moving lid");
     if (w.kind != WallKind::MovingLid && ub && ub->isParameter(side + " lid velocity"))
-      params::fail(b, side + " lid velocity", params::number(w.velocity),
+      params::fail(b, side + " lid velocity", params::str(w.velocity),
                    "given for a side of type '" + b.get<std::string>(side) +
                        "'; allowed only with " + side + " = Moving lid");
     c.walls[static_cast<std::size_t>(s)] = w;
@@ -292,16 +292,16 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                        std::string(kSideNames[s]) + ": No-slip, Free-slip, Moving lid" +
                        (s == 0 ? ", Periodic" : ""));
   if (c.initial_depth > 0.0 && !c.free_surface)
-    params::fail(pl, "Initial depth", params::number(c.initial_depth),
+    params::fail(pl, "Initial depth", params::str(c.initial_depth),
                  "an initial layer needs 'Free surface' = true; allowed: 0");
   // The top of the box: a column deeper than Height - dz / 2 stops a run (NdamSolver::check),
   // so an initial layer or a gate opening that deep is refused here, before the run.
   const double top = c.grid.lz - 0.5 * c.grid.lz / c.grid.nz;
   if (c.initial_depth >= top)
-    params::fail(pl, "Initial depth", params::number(c.initial_depth),
+    params::fail(pl, "Initial depth", params::str(c.initial_depth),
                  "the layer's surface must stay below the upper half of the box's top cell, "
                  "where a column stops the run; allowed: < Height - dz / 2 = " +
-                     params::number(top) + " m (Height " + params::number(c.grid.lz) +
+                     params::str(top) + " m (Height " + params::str(c.grid.lz) +
                      " m, Cells z " + std::to_string(c.grid.nz) + ")");
   // The channel ends: a full box needs Wall/Wall (or Periodic); the free-surface chute also
   // takes the silo gate (Left Inflow, Channel->Left boundary depth and velocity) and an open
@@ -328,10 +328,10 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
       if (series.max_depth() >= top)
         params::fail(where.sublist("Left boundary"),
                      series.is_constant() ? "Inflow depth" : "Inflow series file",
-                     params::number(series.max_depth()),
+                     params::str(series.max_depth()),
                      "the gate opening must lie below the upper half of the 2D box's top cell, "
                      "where a column stops the run; allowed: < N-DAM->Height - dz / 2 = " +
-                         params::number(top) + " m (Height " + params::number(c.grid.lz) +
+                         params::str(top) + " m (Height " + params::str(c.grid.lz) +
                          " m, Cells z " + std::to_string(c.grid.nz) + ")");
     }
     if (channel.right.type == core::BoundaryType::Outflow) {
@@ -367,8 +367,8 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
           r[3] > c.grid.lz)
         params::fail(pl, "Obstacles", spec,
                      "rectangle '" + item + "' is empty or leaves the box; allowed: 0 <= x0 < "
-                     "x1 <= L = " + params::number(c.grid.lx) + ", 0 <= z0 < z1 <= Height = " +
-                     params::number(c.grid.lz));
+                     "x1 <= L = " + params::str(c.grid.lx) + ", 0 <= z0 < z1 <= Height = " +
+                     params::str(c.grid.lz));
       c.obstacles.push_back(r);
     }
   }

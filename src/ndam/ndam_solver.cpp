@@ -407,6 +407,7 @@ core::Health NdamSolver::check() const {
   if (h.ok && cfg_.free_surface && deepest_new_.second >= 0 &&
       deepest_new_.first > cfg_.grid.lz - 0.5 * cfg_.grid.dz()) {
     h.ok = false;
+    h.limit = true;
     h.quantity = "material depth";
     h.value = deepest_new_.first;
     h.x = cfg_.x0 + (deepest_new_.second + 0.5) * dx;

@@ -106,19 +106,6 @@ std::string path(const ParameterList& pl, const std::string& name) {
   return pl.name() + "->" + name;
 }
 
-std::string number(double v) {
-  for (int prec = 6; prec <= 17; ++prec) {
-    std::ostringstream os;
-    os.precision(prec);
-    os << v;
-    if (std::stod(os.str()) == v || !std::isfinite(v)) return os.str();
-  }
-  std::ostringstream os;
-  os.precision(17);
-  os << v;
-  return os.str();
-}
-
 void fail(const ParameterList& pl, const std::string& name, const std::string& value,
           const std::string& why) {
   throw InputError("parameter '" + path(pl, name) + "' = " + value + ": " + why);

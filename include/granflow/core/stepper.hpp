@@ -82,6 +82,9 @@ struct Health {
   double x = 0.0;        ///< where [m]
   double value = 0.0;    ///< offending value
   std::string reason;    ///< e.g. "not finite", "negative depth"
+  /// A limit of the scene reached (the material at the top of the 2D box), not a divergence:
+  /// the run stops the same way (exit 3, last good state kept) with status "stopped".
+  bool limit = false;
 };
 
 /// One piece of a model's layout along the channel: which model runs [x0, x1].

@@ -96,10 +96,6 @@ std::string str(double v);
 /// "Sublist->Parameter" path used in messages.
 std::string path(const ParameterList& pl, const std::string& name);
 
-/// The shortest decimal form of v that reads back as v (0.06, not 5.99999999999999978e-02):
-/// for the values and limits in messages.
-std::string number(double v);
-
 /// Throw InputError("<source>: parameter '<path>' = <value>: <why>").
 [[noreturn]] void fail(const ParameterList& pl, const std::string& name, const std::string& value,
                        const std::string& why);
