@@ -56,7 +56,7 @@ granflow_cli_test(surface_mass_explicit 2 "N-DAM->Surface cell mass' = Material 
 granflow_cli_test(coupled_ndam_ic_in_1d_part 2 "N-DAM->Initial depth' = 0.05: puts a layer on \\[0.3, 0.5\\] m, inside the 1D subdomain"
                   ${_cli}/bad_coupled_ndam_ic_in_1d.xml)
 # the top of the 2D box: a column deeper than Height - dz / 2 stops a run, so a gate opening or an
-# initial layer that deep is refused before it (numbers in their shortest form: 0.06, not 5.99...e-02)
+# initial layer that deep is refused before it (numbers as users write them: 0.06, not 5.99...e-02)
 granflow_cli_test(gate_at_box_top 2 "Left boundary->Inflow depth' = 0.06: the gate opening must lie below the upper half of the 2D box's top cell.*allowed: < N-DAM->Height - dz / 2 = 0.0599833"
                   ${_cli}/bad_gate_at_box_top.xml)
 granflow_cli_test(layer_at_box_top 2 "N-DAM->Initial depth' = 0.149: the layer's surface must stay below.*allowed: < Height - dz / 2 = 0.1475 m"
