@@ -7,22 +7,29 @@
 # And the resident set at the outputs of the steady part (t >= 1.5 s) grows by less than 1 %
 # (measured 0.7 MB, 0.8 %, flattening), while the material area there stays within 1 % of its
 # mean (the run is steady: the memory does not follow anything else).
+# The peak of one short run varies between identical runs (83.1-84.1 MB on 2026-12-02: malloc's
+# arenas and the MPI runtime), by up to half the 2 % margin, and one CI run failed at +2.05 % on
+# a low short run; so the short run is made three times and the 10x longer run is held against
+# the highest of their peaks (the short run's peak with its noise).
 source "$SRC/record_lib.sh"
 rm -rf memory_steady && mkdir memory_steady && cd memory_steady || exit 1
-for T in 0.75 7.5; do
-  scene "$SRC/../../inputs/setup1_ndam.xml" s$T.xml -e 's#"Cells x" type="int" value="300"#"Cells x" type="int" value="150"#' \
+for R in 0.75_1 0.75_2 0.75_3 7.5; do
+  T=${R%_*}
+  scene "$SRC/../../inputs/setup1_ndam.xml" s$R.xml -e 's#"Cells x" type="int" value="300"#"Cells x" type="int" value="150"#' \
         -e 's#"Cells z" type="int" value="30"#"Cells z" type="int" value="15"#' \
         -e "s#\"End time\" type=\"double\" value=\"0.75\"#\"End time\" type=\"double\" value=\"$T\"#" \
-        -e "s#name=\"Directory\" type=\"string\" value=\"[^\"]*\"#name=\"Directory\" type=\"string\" value=\"r$T\"#"
-  grep -q "value=\"$T\"" s$T.xml || fail "the scene variant did not take End time $T"
-  expect 0 "completed at t = $T s" s$T.xml
+        -e "s#name=\"Directory\" type=\"string\" value=\"[^\"]*\"#name=\"Directory\" type=\"string\" value=\"r$R\"#"
+  grep -q "value=\"$T\"" s$R.xml || fail "the scene variant did not take End time $T"
+  expect 0 "completed at t = $T s" s$R.xml
 done
 /usr/bin/python3 - <<'PY' || fail "memory grows with the steps"
 import json
-a = json.load(open("r0.75/summary.json"))["memory"]
+short = [json.load(open("r0.75_%d/summary.json" % i))["memory"]["peak_resident_bytes_rank0"]
+         for i in (1, 2, 3)]
 b = json.load(open("r7.5/summary.json"))["memory"]
-pa, pb = a["peak_resident_bytes_rank0"], b["peak_resident_bytes_rank0"]
-print("peak: 0.75 s %.2f MB, 7.5 s %.2f MB (%+.2f %%)" % (pa / 1e6, pb / 1e6, 100 * (pb / pa - 1)))
+pa, pb = max(short), b["peak_resident_bytes_rank0"]
+print("peak: 0.75 s %s MB (highest %.2f), 7.5 s %.2f MB (%+.2f %%)"
+      % (" / ".join("%.2f" % (v / 1e6) for v in short), pa / 1e6, pb / 1e6, 100 * (pb / pa - 1)))
 assert pb <= 1.02 * pa, "the 10x longer run peaks %.1f %% higher" % (100 * (pb / pa - 1))
 steady = [m for m in b["at_outputs"] if m["t"] >= 1.5 - 1e-9]
 assert len(steady) >= 20, len(steady)
