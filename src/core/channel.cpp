@@ -101,9 +101,8 @@ double InflowSeries::interp(const std::vector<double>& v, double t) const {
   return (1.0 - w) * v[i - 1] + w * v[i];
 }
 double InflowSeries::depth(double t) const { return interp(h_, t); }
-
-double InflowSeries::max_depth() const { return *std::max_element(h_.begin(), h_.end()); }
 double InflowSeries::velocity(double t) const { return interp(u_, t); }
+double InflowSeries::max_depth() const { return *std::max_element(h_.begin(), h_.end()); }
 
 namespace {
 const std::vector<std::string> kLeftTypes{"Inflow", "Outflow", "Wall", "Periodic"};

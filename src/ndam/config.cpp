@@ -294,9 +294,8 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
   if (c.initial_depth > 0.0 && !c.free_surface)
     params::fail(pl, "Initial depth", params::str(c.initial_depth),
                  "an initial layer needs 'Free surface' = true; allowed: 0");
-  // The top of the box: a column deeper than Height - dz / 2 stops a run (NdamSolver::check),
-  // so an initial layer or a gate opening that deep is refused here, before the run.
-  const double top = c.grid.lz - 0.5 * c.grid.lz / c.grid.nz;
+  // The top of the box (Grid::material_limit): refused here, before the run that it would stop.
+  const double top = c.grid.material_limit();
   if (c.initial_depth >= top)
     params::fail(pl, "Initial depth", params::str(c.initial_depth),
                  "the layer's surface must stay below the upper half of the box's top cell, "

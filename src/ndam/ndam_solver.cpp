@@ -404,8 +404,8 @@ core::Health NdamSolver::check() const {
   // markers' (count times area over dx, every marker of the column), the same on all ranks
   // (gathered counts): half a cell below the top of the box is the limit, where the column's
   // surface enters the top row's upper half.
-  if (h.ok && cfg_.free_surface && deepest_new_.second >= 0 &&
-      deepest_new_.first > cfg_.grid.lz - 0.5 * cfg_.grid.dz()) {
+  const double limit = cfg_.grid.material_limit();
+  if (h.ok && cfg_.free_surface && deepest_new_.second >= 0 && deepest_new_.first > limit) {
     h.ok = false;
     h.limit = true;
     h.quantity = "material depth";
@@ -414,7 +414,7 @@ core::Health NdamSolver::check() const {
     h.reason = "the material of the column reaches the top of the 2D box (depth " +
                detail::gstr(deepest_new_.first) + " m against N-DAM->Height = " +
                detail::gstr(cfg_.grid.lz) + " m; allowed: at most Height - dz / 2 = " +
-               detail::gstr(cfg_.grid.lz - 0.5 * cfg_.grid.dz()) +
+               detail::gstr(limit) +
                " m): raise N-DAM->Height (and Cells z with it)";
   }
   // The nonlinear pressure system: a Newton solve that did not converge stops the run (the

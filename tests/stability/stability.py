@@ -70,6 +70,11 @@ def case(name, scene, changes, outcome="bounded", bound=None, note="", default=F
     return c
 
 
+# delta = 0 (and phi = delta = 1 deg) make the end wall frictionless too (its Coulomb angle is the
+# bed's): the layer runs up it at impact like a frictionless jet, u^2 / (2 g cos(zeta)) = 1.3 m
+# for 4.1 m/s, so those cases get a 1.5 m box (300 cells of 5 mm); in 0.3 m the jet reaches the
+# top at 0.73 s (exit 3), and the shipped 0.15 m box capped it (wall column 0.148 m, "completed")
+TALL_BOX = {"N-DAM/Height": 1.5, "N-DAM/Cells z": 300}
 YS = 1.0 / 1440.0  # Bingham yield stress: 1 Pa as the kinematic tau_y / rho [m^2/s^2]
 REST_SERIES = "rest_inflow.csv"  # the gate open for 0.2 s, then closed (written next to the scene)
 
@@ -122,16 +127,11 @@ CASES = [
           "Channel/Left boundary/Inflow series file": REST_SERIES, "Time/End time": 4.0, "Output/Interval": 0.1},
          outcome="rest", t_rest=2.5, u_rest=0.01, bound=chute_bound(slope=20)),
     # --- friction angles ---
-    # delta = 0 makes the wall frictionless too (its Coulomb angle is the bed's): the layer runs
-    # up the wall at impact like a frictionless jet, u^2 / (2 g cos(zeta)) = 1.3 m for 4.1 m/s,
-    # so the box is 1.5 m high (300 cells): in 0.3 m the jet reaches the top at 0.73 s (stop,
-    # exit 3); the shipped 0.15 m box capped it (wall column 0.148 m, "completed")
-    case("ndam_delta_0", "setup2_ndam", {"Material/Bed friction angle": 0.0,
-                                          "N-DAM/Height": 1.5, "N-DAM/Cells z": 300}),
+    case("ndam_delta_0", "setup2_ndam", {"Material/Bed friction angle": 0.0, **TALL_BOX}),
     case("ndam_delta_phi", "setup2_ndam", {"Material/Bed friction angle": 33.0}),
     case("ndam_phi_1", "setup2_ndam",
          {"Material/Internal friction angle": 1.0, "Material/Bed friction angle": 1.0,
-          "N-DAM/Height": 1.5, "N-DAM/Cells z": 300}),  # nearly frictionless: see ndam_delta_0
+          **TALL_BOX}),
     case("ndam_phi_60", "setup2_ndam", {"Material/Internal friction angle": 60.0}, default=True),
     # --- inflow: a 2 mm film (at 2.5 mm cells: below one cell it is not resolved) and a fast
     #     one, u_in = 5 m/s through 8 mm: Fr = u / sqrt(g h cos(zeta)) = 22 (both at 2.5 / 5 mm,
@@ -189,9 +189,8 @@ CASES = [
     case("coupled_my_1e4", "setup2_coupled", {"Rheology/Regularisation": 1e4}, default=True),
     case("coupled_mc_1", "setup2_coupled", {"N-DAM/Friction regularisation": 1.0}, default=True),
     case("coupled_nu_0.3", "setup2_coupled", {"Rheology/Viscosity": 0.3}),
-    case("coupled_delta_0", "setup2_coupled", {"Material/Bed friction angle": 0.0,
-                                                "N-DAM/Height": 1.5, "N-DAM/Cells z": 300},
-         default=True),  # the box: see ndam_delta_0
+    case("coupled_delta_0", "setup2_coupled", {"Material/Bed friction angle": 0.0, **TALL_BOX},
+         default=True),
     case("coupled_fast_inflow", "setup2_coupled",
          {"Channel/Left boundary/Inflow depth": 0.008, "Channel/Left boundary/Inflow velocity": 5.0,
           "Time/End time": 0.2}, bound=chute_bound(u_in=5.0), default=True),

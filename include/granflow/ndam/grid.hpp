@@ -50,6 +50,10 @@ struct Grid {
   double lx = 1.0, lz = 1.0;     ///< box [m]
   double dx() const { return lx / nx; }
   double dz() const { return lz / nz; }
+  /// The deepest a column's material may be, with its surface in the lower half of the top
+  /// row: Height - dz / 2. Deeper stops a free-surface run (NdamSolver::check); an initial
+  /// layer or a gate opening that deep is refused before it (NdamConfig::from_parameters).
+  double material_limit() const { return lz - 0.5 * dz(); }
 };
 
 /// This rank's part of the grid.
