@@ -339,7 +339,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
 // Returns max r (collective). Faces clamped to sticking are left out (the law is replaced by
 // no-slip there), and so are the fixed faces beyond the box.
 double NdamSolver::relinearise_friction(const Field& us, const Field& ws,
-                                        const std::function<bool(double, double)>& iterate,
+                                        const std::function<bool(double, double, double)>& iterate,
                                         bool& relinearised) {
   const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
   const double m = cfg_.m_c;
@@ -349,11 +349,14 @@ double NdamSolver::relinearise_friction(const Field& us, const Field& ws,
     double q, u0, u1;
   };
   std::vector<Face> faces;
-  double r = 0.0, over = -1.0;
+  double r = 0.0, r_acc = 0.0, over = -1.0;
   auto check = [&](bool bed, std::size_t f, double q, double ghost_a, double ghost_b, double u0,
                    double u1) {
     const double used = (u1 - (ghost_a * u1 + ghost_b)) / q;
-    r = std::max(r, std::abs(used - coulomb_mean(m, u0, u1).c));
+    const double res = std::abs(used - coulomb_mean(m, u0, u1).c);
+    r = std::max(r, res);
+    // a base speeding up in its direction of motion (not reversing, not slowing down)
+    if (u0 * u1 > 0.0 && std::abs(u1) > std::abs(u0)) r_acc = std::max(r_acc, res);
     over = std::max(over, std::abs(used) - 1.0);
     faces.push_back({f, bed, q, u0, u1});
   };
@@ -370,8 +373,9 @@ double NdamSolver::relinearise_friction(const Field& us, const Field& ws,
         check(false, f, wall_q_[f], wall_a_[f], wall_b_[f], w_(nxl - 1, k), ws(nxl - 1, k));
     }
   r = detail::allreduce_max(r, comm_);
+  r_acc = detail::allreduce_max(r_acc, comm_);
   over = detail::allreduce_max(over, comm_);
-  relinearised = iterate(r, over);
+  relinearised = iterate(r, r_acc, over);
   if (!relinearised) return r;
   for (const Face& fc : faces) {
     const CoulombMean cm = coulomb_mean(m, fc.u0, fc.u1);

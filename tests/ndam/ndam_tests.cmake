@@ -7,12 +7,14 @@ add_executable(test_ndam
 target_link_libraries(test_ndam PRIVATE granflow_ndam granflow_scene GTest::gtest granflow_warnings)
 target_compile_definitions(test_ndam PRIVATE GRANFLOW_INPUTS="${PROJECT_SOURCE_DIR}/inputs")
 # The long cases (finer cavity grids, Re = 1000) are registered separately with the label `long`.
-gtest_discover_tests(test_ndam DISCOVERY_TIMEOUT 60 TEST_FILTER "-NdamCavityLong.*:NdamPlugLong.*"
+gtest_discover_tests(test_ndam DISCOVERY_TIMEOUT 60 TEST_FILTER "-NdamCavityLong.*:NdamPlugLong.*:NdamDepositLong.*"
                      PROPERTIES LABELS "ndam")
 add_test(NAME ndam.cavity_long COMMAND test_ndam --gtest_filter=NdamCavityLong.*)
 set_tests_properties(ndam.cavity_long PROPERTIES LABELS "ndam;long" TIMEOUT 3600)
 add_test(NAME ndam.plug_long COMMAND test_ndam --gtest_filter=NdamPlugLong.*)
 set_tests_properties(ndam.plug_long PROPERTIES LABELS "ndam;long" TIMEOUT 600)
+add_test(NAME ndam.deposit_long COMMAND test_ndam --gtest_filter=NdamDepositLong.*)
+set_tests_properties(ndam.deposit_long PROPERTIES LABELS "ndam;long" TIMEOUT 900)
 
 # np = 2 against np = 1: the distributed run and a serial run (MPI_COMM_SELF) inside one binary
 # under mpiexec with 2 ranks (as root OpenMPI needs --allow-run-as-root; 2 ranks on 2 cores

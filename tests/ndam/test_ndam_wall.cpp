@@ -145,10 +145,12 @@ Measured drop_block(int cells_per_cm, double cfl) {
 //  - the Coulomb end wall: the friction law (12)-(13) bounds the wall shear by tan(delta) times
 //    the normal stress face by face, with N lagged at t^n (boundaries.cpp) and the step's mean
 //    friction factor (|c| <= 1): |S| <= tan(delta) max(N^n, N^{n+1}) at every step (N^n: the
-//    last step's wall load; measured at most 0.95 / 0.95 / 0.96). Against N^{n+1} alone the
+//    last step's wall load; measured at most 0.995 / 0.97 / 0.86). Against N^{n+1} alone the
 //    lag shows where the wall unloads fast after the impact peak (N falls by 20-35 % per step
-//    at 0.145-0.151 s): measured 1.19 / 1.04 / 0.96, so asserted <= 1.25 and, as a first-order
-//    lag must, the excess over 1 shrinks at least by half when dt halves (0.19 -> 0.04).
+//    at 0.145-0.151 s): measured 1.31 / 1.15 / 0.86 (1.19 / 1.04 / 0.96 before the surface-wave
+//    step limit, whose shorter steps before the impact put the unloading into other steps), so
+//    asserted <= 1.4 and, as a first-order lag must, the excess over 1 shrinks at least by half
+//    when dt halves (0.31 -> 0.15).
 // With the viscous stress of u^{n+1} instead of the step's u* (the projection moves u by
 // dt grad phi, and nu_eff dt / dx^2 reaches 10^3 in the pile) the impulse residual was 36 % and
 // 66 % at 1 cm and 5 mm: this test fails on that definition.
@@ -167,7 +169,7 @@ TEST(NdamWall, BlockIntoWallTransfersItsMomentumThenItsWeight) {
     EXPECT_LT(m.rest_dev, 0.07);
     EXPECT_NEAR(m.rest_mean, 1.0, 0.02);
     EXPECT_LE(m.shear_ratio_step, 1.0);
-    EXPECT_LE(m.shear_ratio, 1.25);
+    EXPECT_LE(m.shear_ratio, 1.4);
     if (res == 1) (cfl == 0.5 ? excess[0] : excess[1]) = std::max(0.0, m.shear_ratio - 1.0);
   }
   EXPECT_LE(excess[1], 0.5 * excess[0]);

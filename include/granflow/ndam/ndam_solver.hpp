@@ -208,7 +208,7 @@ class NdamSolver final : public core::Stepper {
   void fill_scalar_ghosts(Field& s) const;
   void update_friction(const Field& p_yield);  // Coulomb ghosts: tangent of (12) at u^n
   double relinearise_friction(const Field& us, const Field& ws,  // Newton on the friction
-                              const std::function<bool(double, double)>& iterate,
+                              const std::function<bool(double, double, double)>& iterate,
                               bool& relinearised);
   void exchange_bed_factors();
   // --- inflow.cpp: the silo gate and the 1D-to-2D interface (eqs. 24-27) -------------------
