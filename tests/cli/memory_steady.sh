@@ -4,9 +4,12 @@
 # (VmHWM) must stay within 2 % of the shorter one's: measured 84.91 against 84.60 MB (+0.4 %,
 # malloc's arenas settling; also without field output). 2 % = 1.7 MB is what a leak of 300 B
 # per step would add over the 5500 steps; a field of the grid per step (18 kB) would add 100 MB.
-# And the resident set at the outputs of the steady part (t >= 1.5 s) grows by less than 1 %
-# (measured 0.7 MB, 0.8 %, flattening), while the material area there stays within 1 % of its
-# mean (the run is steady: the memory does not follow anything else).
+# And the resident set at the outputs of the steady part (t >= 1.5 s) grows by less than 1.5 %
+# (measured 0.6-0.85 MB, 0.7-1.0 %: malloc settling, 0.4 MB of it in the first 1.5 s), and by
+# less than 0.5 % over its last 3 s (measured 0.12 MB, 0.14 %), where a leak of 200 B per step
+# (about 2200 steps there) would add 0.44 MB; while the material area stays within 1 % of its
+# mean (the run is steady: the memory does not follow anything else). (Until 2026-12-02 one
+# bound of 1 % over the whole steady part, which a run failed at 1.0 %.)
 # The peak of one short run varies between identical runs (83.1-84.1 MB on 2026-12-02: malloc's
 # arenas and the MPI runtime), by up to half the 2 % margin, and one CI run failed at +2.05 % on
 # a low short run; so the short run is made three times and the 10x longer run is held against
@@ -37,8 +40,11 @@ area = [m["material_m2"] for m in steady]
 mean = sum(area) / len(area)
 assert max(abs(x - mean) for x in area) <= 0.01 * mean, "not steady: material %s" % area
 r0, r1 = steady[0]["resident_bytes"], max(m["resident_bytes"] for m in steady)
-print("resident over the steady part: %.2f -> at most %.2f MB (%+.2f %%)"
-      % (r0 / 1e6, r1 / 1e6, 100 * (r1 / r0 - 1)))
-assert r1 <= 1.01 * r0, "the resident set grows by %.1f %% while the flow is steady" % (100 * (r1 / r0 - 1))
+late = [m for m in steady if m["t"] >= 4.5 - 1e-9]
+l0, l1 = late[0]["resident_bytes"], max(m["resident_bytes"] for m in late)
+print("resident over the steady part: %.2f -> at most %.2f MB (%+.2f %%); from 4.5 s %.2f -> %.2f MB (%+.2f %%)"
+      % (r0 / 1e6, r1 / 1e6, 100 * (r1 / r0 - 1), l0 / 1e6, l1 / 1e6, 100 * (l1 / l0 - 1)))
+assert r1 <= 1.015 * r0, "the resident set grows by %.1f %% while the flow is steady" % (100 * (r1 / r0 - 1))
+assert l1 <= 1.005 * l0, "the resident set grows by %.2f %% over the last 3 s" % (100 * (l1 / l0 - 1))
 PY
 echo "memory steady checks passed"
