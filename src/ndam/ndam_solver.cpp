@@ -271,8 +271,9 @@ double NdamSolver::stable_dt() const {
 }
 
 // The condition behind stable_dt() and its place, for the diagnosis of a collapsed step: the
-// candidates of stable_dt (advective u and w, and for the explicit scheme the viscous and the
-// Coulomb-friction limits), each at the face or cell of its largest value over the ranks.
+// candidates of stable_dt (advective u and w, the surface waves of the deepest column, and for
+// the explicit scheme the viscous and the Coulomb-friction limits), each at the face, cell or
+// column of its largest value over the ranks.
 std::string NdamSolver::dt_limit() const {
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
   const int nz = cfg_.grid.nz;
@@ -304,16 +305,30 @@ std::string NdamSolver::dt_limit() const {
     return Where{b[0], cfg_.x0 + b[1], b[2]};
   };
   u = global(u), w = global(w), nu = global(nu), fr = global(fr);
+  // the surface-wave speed of the deepest column (col_h_ holds every column on every rank)
+  Where gw;
+  if (cfg_.free_surface)
+    for (std::size_t q = 0; q < col_h_.size(); ++q)
+      if (col_h_[q] > 0.0 && std::sqrt(std::abs(phys_.gz) * col_h_[q]) > gw.v)
+        gw = {std::sqrt(std::abs(phys_.gz) * col_h_[q]), cfg_.x0 + (q + 0.5) * dx, col_h_[q]};
   const double inf = std::numeric_limits<double>::infinity();
   const bool expl = cfg_.momentum == Momentum::Explicit;
   const double dt_u = u.v > 0.0 ? dx / u.v : inf, dt_w = w.v > 0.0 ? dz / w.v : inf;
   const double dt_nu = expl && nu.v > 0.0 ? 1.0 / (4.0 * nu.v * (1.0 / (dx * dx) + 1.0 / (dz * dz)))
                                           : inf;
   const double dt_fr = expl && fr.v > 0.0 ? 1.0 / fr.v : inf;
+  const double dt_gw = gw.v > 0.0 ? dx / gw.v : inf;
+  const double dt_start = cfg_.momentum == Momentum::Implicit && friction_dt_ > 0.0 ? friction_dt_ : inf;
   std::ostringstream os;
-  const double m = std::min({dt_u, dt_w, dt_nu, dt_fr});
+  const double m = std::min({dt_u, dt_w, dt_nu, dt_fr, dt_gw, dt_start});
   if (!std::isfinite(m)) return "no velocity and no viscous limit (the material at rest)";
-  if (m == dt_nu)
+  if (m == dt_start)
+    os << "the Coulomb friction start-up (the friction factor of a base starting to slide grows "
+          "by at most CFL per step): it would grow by 1 in " << dt_start << " s";
+  else if (m == dt_gw)
+    os << "the surface-wave limit CFL dx / sqrt(g cos(zeta) h): sqrt(g cos(zeta) h) = " << gw.v
+       << " m/s in the column at x = " << gw.x << " m, h = " << gw.z << " m";
+  else if (m == dt_nu)
     os << "the explicit viscous limit CFL / (4 nu_eff (1/dx^2 + 1/dz^2)): nu_eff = " << nu.v
        << " m^2/s at x = " << nu.x << " m, z = " << nu.z << " m";
   else if (m == dt_fr)
