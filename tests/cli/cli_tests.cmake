@@ -259,6 +259,25 @@ foreach(_family setup2 setup1 lab_chute)
   set_tests_properties(long.pareto_${_family} PROPERTIES LABELS "long" TIMEOUT 86400)
 endforeach()
 
+# No hole in a deposit (issue 11 item 3): the shipped free-surface scenes as shipped, every
+# output of their fields (scripts/find_holes.py); the 5 mm scenes to 0.75 s in the default suite
+# (about 45 s), the column collapse and the 2 m laboratory chute under `long`.
+set(_in ${PROJECT_SOURCE_DIR}/inputs)
+add_test(NAME cli.no_holes_in_shipped_scenes
+         COMMAND /usr/bin/python3 ${_cli}/holes_shipped.py $<TARGET_FILE:granflow>
+                 ${PROJECT_SOURCE_DIR}/scripts/find_holes.py ${CMAKE_CURRENT_BINARY_DIR}/holes
+                 ${_in}/setup1_ndam.xml ${_in}/setup2_ndam.xml ${_in}/setup2_ndam_bingham.xml
+                 ${_in}/setup1_coupled.xml ${_in}/setup2_coupled.xml
+                 ${_in}/setup2_coupled_bingham.xml ${_in}/setup2_dynamic.xml)
+set_tests_properties(cli.no_holes_in_shipped_scenes PROPERTIES LABELS "cli" TIMEOUT 900)
+add_test(NAME long.no_holes_in_shipped_scenes
+         COMMAND /usr/bin/python3 ${_cli}/holes_shipped.py $<TARGET_FILE:granflow>
+                 ${PROJECT_SOURCE_DIR}/scripts/find_holes.py ${CMAKE_CURRENT_BINARY_DIR}/holes_long
+                 ${_in}/ndam_column_collapse.xml ${_in}/lab_chute_ndam.xml
+                 ${_in}/lab_chute_static.xml ${_in}/lab_chute_apriori.xml
+                 ${_in}/lab_chute_dynamic.xml)
+set_tests_properties(long.no_holes_in_shipped_scenes PROPERTIES LABELS "long" TIMEOUT 14400)
+
 # Restarts through the app continue bit for bit for the 2D, coupled and dynamic models (the DAM's
 # is cli.restart_reproduces_straight_run).
 add_test(NAME cli.restart_exact_2d_coupled_dynamic
