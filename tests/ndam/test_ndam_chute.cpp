@@ -498,6 +498,24 @@ namespace {
 struct CollapseLog {
   std::vector<double> t, front, top, rms;
 };
+// The rms speed of the material cells (Fluid and Surface) of an nx x nz box, from the
+// cell-centre u, w (the means of each cell's two faces; the faces beyond the box are 0).
+double material_rms_speed(const ndam::NdamSolver& s, int nx, int nz) {
+  const auto u = s.gather_u(), w = s.gather_w();
+  const auto at = [nz](int i, int kk) { return static_cast<std::size_t>(i * nz + kk); };
+  double sum = 0.0;
+  int cells = 0;
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = 0; k < nz; ++k) {
+      const auto f = s.flag(gi, k);
+      if (f != ndam::CellFlag::Fluid && f != ndam::CellFlag::Surface) continue;
+      const double uc = 0.5 * (u[at(gi, k)] + (gi > 0 ? u[at(gi - 1, k)] : 0.0));
+      const double wc = 0.5 * (w[at(gi, k)] + (k > 0 ? w[at(gi, k - 1)] : 0.0));
+      sum += uc * uc + wc * wc;
+      ++cells;
+    }
+  return std::sqrt(sum / std::max(cells, 1));
+}
 CollapseLog column_collapse(double m_c, int nx = 50, int nz = 25) {
   auto sc = scene::load(std::string(GRANFLOW_INPUTS) + "/ndam_column_collapse.xml");
   auto& n = sc.params->sublist("N-DAM");
@@ -520,22 +538,9 @@ CollapseLog column_collapse(double m_c, int nx = 50, int nz = 25) {
     for (std::size_t c = 0; c < p.x.size(); ++c)
       if (p.h[c] > 1e-3) front = p.x[c] + 0.5 * dx;
     log.top.push_back(p.h[0]);
-    const auto u = s->gather_u(), w = s->gather_w();
-    double sum = 0.0;
-    int cells = 0;
-    for (int gi = 0; gi < nx; ++gi)
-      for (int k = 0; k < nz; ++k) {
-        const auto f = s->flag(gi, k);
-        if (f != ndam::CellFlag::Fluid && f != ndam::CellFlag::Surface) continue;
-        const auto at = [nz](int i, int kk) { return static_cast<std::size_t>(i * nz + kk); };
-        const double uc = 0.5 * (u[at(gi, k)] + (gi > 0 ? u[at(gi - 1, k)] : 0.0));
-        const double wc = 0.5 * (w[at(gi, k)] + (k > 0 ? w[at(gi, k - 1)] : 0.0));
-        sum += uc * uc + wc * wc;
-        ++cells;
-      }
     log.t.push_back(t);
     log.front.push_back(front);
-    log.rms.push_back(std::sqrt(sum / std::max(cells, 1)));
+    log.rms.push_back(material_rms_speed(*s, nx, nz));
   }
   return log;
 }
@@ -664,20 +669,7 @@ TEST(NdamDeposit, SetupIICornerBlockRestsWithinTheCreepBound) {
         hmax = std::max(hmax, p.h[c]);
       }
       const double wall = p.h.back();
-      const auto u = s->gather_u(), w = s->gather_w();
-      double sum = 0.0;
-      int cells = 0;
-      for (int gi = 0; gi < nx; ++gi)
-        for (int k = 0; k < nz; ++k) {
-          const auto f = s->flag(gi, k);
-          if (f != ndam::CellFlag::Fluid && f != ndam::CellFlag::Surface) continue;
-          const auto at = [nz = nz](int i, int kk) { return static_cast<std::size_t>(i * nz + kk); };
-          const double uc = 0.5 * (u[at(gi, k)] + (gi > 0 ? u[at(gi - 1, k)] : 0.0));
-          const double wc = 0.5 * (w[at(gi, k)] + (k > 0 ? w[at(gi, k - 1)] : 0.0));
-          sum += uc * uc + wc * wc;
-          ++cells;
-        }
-      const double rms = std::sqrt(sum / std::max(cells, 1));
+      const double rms = material_rms_speed(*s, nx, nz);
       std::printf("corner block %d x %d, t = %.2f s: rms speed %.4f m/s, upstream edge %.4f m, "
                   "wall depth %.4f m\n", nx, nz, t, rms, back, wall);
       if (t < 0.6 - 1e-9) continue;
