@@ -248,18 +248,15 @@ double NdamSolver::stable_dt() const {
   // Surface gravity waves (free surface): the surface height enters the step explicitly (the
   // markers of t^n set the Surface cells' pressure g cos(zeta) (h - z) and move afterwards), so
   // the long waves of a column of depth h, speed |u_mean| +- sqrt(g cos(zeta) h) as in the DAM's
-  // step, must be resolved like advection. In a flow the faces' |u| is the larger speed; in a
+  // step, must be resolved like advection: the limit takes sqrt(g cos(zeta) h), the advective
+  // limit beside it |u|, so that (|u| + sqrt(g cos(zeta) h)) dt / dx <= 2 CFL. In a flow the
+  // faces' |u| is the larger speed; in a
   // deposit at rest |u| -> 0 lets the advective step grow until the explicit surface pumps the
   // pile: a column collapse at 2.5 mm crept at an rms speed of 8-27 mm/s (its regularisation's
   // creep bound 11 mm/s) with steps of 3-4 ms, at 2.7-3.1 mm/s with 2 ms, and the same at 5 mm
   // with 2.4 ms (docs/validation.md, "Coulomb friction in time and deposits at rest").
-  if (cfg_.free_surface && !col_h_.empty()) {
-    double cmax = 0.0;
-    for (std::size_t q = 0; q < col_h_.size(); ++q)
-      if (col_h_[q] > 0.0)
-        cmax = std::max(cmax, std::sqrt(std::abs(phys_.gz) * col_h_[q]));
-    if (cmax > 0.0) cand(dx / cmax, "surface gravity waves, dx / sqrt(g cos(zeta) h)");
-  }
+  if (const double c = surface_wave().speed; c > 0.0)
+    cand(dx / c, "surface gravity waves, dx / sqrt(g cos(zeta) h)");
   dt *= cfg_.cfl;
   // Implicit and Newtonian: the dt of the assembled momentum matrix is held (kDtHoldFraction).
   if (cfg_.momentum == Momentum::Implicit && rheo_.newtonian() && momentum_dt_ > 0.0 &&
@@ -305,12 +302,8 @@ std::string NdamSolver::dt_limit() const {
     return Where{b[0], cfg_.x0 + b[1], b[2]};
   };
   u = global(u), w = global(w), nu = global(nu), fr = global(fr);
-  // the surface-wave speed of the deepest column (col_h_ holds every column on every rank)
-  Where gw;
-  if (cfg_.free_surface)
-    for (std::size_t q = 0; q < col_h_.size(); ++q)
-      if (col_h_[q] > 0.0 && std::sqrt(std::abs(phys_.gz) * col_h_[q]) > gw.v)
-        gw = {std::sqrt(std::abs(phys_.gz) * col_h_[q]), cfg_.x0 + (q + 0.5) * dx, col_h_[q]};
+  const SurfaceWave sw = surface_wave();  // the same on every rank (col_h_: all columns)
+  const Where gw{sw.speed, cfg_.x0 + (static_cast<double>(sw.column) + 0.5) * dx, sw.h};
   const double inf = std::numeric_limits<double>::infinity();
   const bool expl = cfg_.momentum == Momentum::Explicit;
   const double dt_u = u.v > 0.0 ? dx / u.v : inf, dt_w = w.v > 0.0 ? dz / w.v : inf;
@@ -341,6 +334,14 @@ std::string NdamSolver::dt_limit() const {
     os << "the advective CFL limit: |w| = " << w.v << " m/s at the face x = " << w.x
        << " m, z = " << w.z << " m";
   return os.str();
+}
+
+NdamSolver::SurfaceWave NdamSolver::surface_wave() const {
+  SurfaceWave sw;
+  if (!cfg_.free_surface) return sw;
+  for (std::size_t q = 0; q < col_h_.size(); ++q)  // the deepest column is the fastest
+    if (col_h_[q] > sw.h) sw = {std::sqrt(std::abs(phys_.gz) * col_h_[q]), q, col_h_[q]};
+  return sw;
 }
 
 double NdamSolver::max_nu_eff() const {

@@ -146,6 +146,14 @@ class NdamSolver final : public core::Stepper {
   }
   /// Largest nu_eff of the current state [m^2/s].
   double max_nu_eff() const;
+  /// The fastest long surface wave of the current state: sqrt(g cos(zeta) h) [m/s] of the
+  /// deepest column (free surface only; 0 without material), that column's global index and h.
+  struct SurfaceWave {
+    double speed = 0.0;
+    std::size_t column = 0;
+    double h = 0.0;
+  };
+  SurfaceWave surface_wave() const;
   // --- free-surface chute and coupling API ---------------------------------------------------
   struct ColumnState {
     double h = 0.0, u_mean = 0.0;
