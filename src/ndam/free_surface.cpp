@@ -85,13 +85,19 @@ void NdamSolver::advect_markers(double dt) {
   // the 2D side gives it up, the whole markers of it nearest to the face (before, nothing was
   // taken and the debt grew: a 2D column collapsing into a DAM made 92 % of its mass, and the
   // ledger, counting the debt as negative pending mass, still closed).
-  if (inflow_mass_ && inflow_owed_new_ < 0.0) {
+  // The debt is what the two pots hold together: the DAM's averaging terms (inflow_held_) are
+  // one-signed while the DAM's end deepens under a back-flow, so they count too.
+  if (inflow_mass_ && inflow_owed_new_ + inflow_held_new_ < 0.0) {
     const double a = markers_new_->marker_area();
-    const auto want = static_cast<long long>(std::floor(-inflow_owed_new_ / a));
+    const auto want = static_cast<long long>(std::floor(-(inflow_owed_new_ + inflow_held_new_) / a));
     if (want > 0) {
       long long got = markers_new_->take_back(want), all = 0;
       MPI_Allreduce(&got, &all, 1, MPI_LONG_LONG, MPI_SUM, comm_);
-      inflow_owed_new_ += a * static_cast<double>(all);
+      // what was given up settles the owed mass first, the held pool with the rest
+      const double given = a * static_cast<double>(all);
+      const double to_owed = std::clamp(-inflow_owed_new_, 0.0, given);
+      inflow_owed_new_ += to_owed;
+      inflow_held_new_ += given - to_owed;
     }
   }
   marker_mass_new_ = markers_new_->mass();

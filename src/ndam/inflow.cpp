@@ -21,17 +21,20 @@
 namespace granflow::ndam {
 
 namespace {
-// Exact transfer through a 1D-to-2D interface: the velocity that lets in the DAM's outgoing mass
-// is capped at |u_mean| + kInflowSpeedupFloor of the provider (eq. 24: the 2D side's mean
-// velocity is the 1D side's); the floor (0.1 m/s, a few per cent of the chute's 0.4-3 m/s) lets
-// mass in while the provider's u_mean is still ~0 (a front arriving). Where the mass needs more,
-// the opening is deepened instead, up to kInflowDeepen times the provider's depth: at the DAM's
-// tip the reconstruction's depth at x_IF lags the flux that its ledger lets out. Before, the
-// velocity took it, up to 1.5 |u_mean| + 0.1 m/s: the tip's first markers entered at 1.4 times
-// the DAM's tip speed and the first 2D columns were the fastest cells of every coupled run
-// (5.05 m/s against the 4.48 m/s bound of the free-slip case; docs/validation.md, "Stability
-// suite"). The mass a step can take is about the same: 1.5 h (|u_mean| + 0.1 m/s) dt against
-// h (1.5 |u_mean| + 0.1 m/s) dt before.
+// Exact transfer through a 1D-to-2D interface (eq. 24: the 2D side's mean velocity is the 1D
+// side's). The opening takes the provider's |u_mean| and lets the step's mass in through its
+// depth, mass / (dt |u_mean|), up to kInflowDeepen times the provider's depth (at the DAM's tip
+// the reconstruction's depth at x_IF lags the flux that its ledger lets out); beyond that the
+// velocity rises, up to |u_mean| + kInflowSpeedupFloor. While the provider's u_mean is below the
+// floor (0.1 m/s, a few per cent of the chute's 0.4-3 m/s: a front arriving) the opening keeps
+// the provider's depth and the velocity carries the mass, up to the same cap. Before
+// 2026-12-02 the velocity always carried the mass through the provider's depth; every
+// fluctuation of the step's mass then became one of the inflow velocity (below, the DAM's
+// averaging term), and the first 2D columns ran the slower the shorter the step (10 mm, a third
+// of the stable step: 1.2 % slower; 5 mm, steps of 2e-4 s: 4-5 %). Earlier still the velocity
+// took up to 1.5 |u_mean| + 0.1 m/s and the tip's first markers were the fastest cells of every
+// coupled run (5.05 m/s against the 4.48 m/s bound of the free-slip case; docs/validation.md,
+// "Stability suite").
 constexpr double kInflowSpeedupFloor = 0.1;  // [m/s]
 constexpr double kInflowDeepen = 1.5;
 // Below this inflow depth the step takes nothing: a film of 0.1 mm (1/50 of the 5 mm cells of
@@ -42,13 +45,19 @@ constexpr double kInflowMinDepth = 1e-4;  // [m]
 // (eq. 25): it is at rest or empty, and the opening takes the uniform profile.
 constexpr double kShapeMinMean = 1e-12;  // [m/s]
 // The DAM's ledger term of a step is dt times its end flux plus an averaging term of the
-// staggered scheme, O(dx^2 h_x) whatever dt (DamSolver::PendingStep::out_flux). In a step of
-// the stable length that term is about 1 % of the mass (Setup II coupled, 5 mm); it alternates
-// with the grid, and the sum is what is smooth from step to step. Where it is more than this
-// fraction of the mass the step is too short for the mass to say how fast the layer flows (the
-// step that lands on an output time, 1/93 of the stable one in the case below): the velocity
-// then leaves the term out, and it waits as carried mass for the next step.
-constexpr double kInflowHeldFraction = 0.1;
+// staggered scheme (DamSolver::PendingStep::out_flux), O(dx^2 h_x) whatever dt and alternating in
+// sign with the grid from step to step (with a mean of 1-2 % of the step's mass in steady Setup
+// I): only the sum over steps is smooth. In steps of 2e-4 s (Setup I coupled, 5 mm) it was
+// 5-20 % of a step's mass; in a step that lands on an output time (1/93 of the stable one in
+// Setup II coupled) it outweighed the flux with either sign. The averaging terms wait in a pool
+// of their own (inflow_held_) that enters at the rate the flow crosses one 2D cell, a fraction
+// min(1, dt (|u_mean| + floor) / dx) of the pool per step: a time scale of the flow and the
+// grid, not of dt. A step lets in at most kHeldRelease of its flux's mass from the pool (or the
+// step's own averaging term, where that is more, so that the pool drains as fast as it fills),
+// so that the opening's depth stays within that fraction of the DAM's: the pool also takes the
+// carried mass of a gate that a move made interior (coupling::rebuild), up to one marker per
+// row, which would otherwise open the new first column a row deeper than the layer.
+constexpr double kHeldRelease = 0.1;
 }  // namespace
 
 // The gate state of a step (lagged at t^n): {h_in, u_in} from the provider; with an exact mass
@@ -57,28 +66,38 @@ constexpr double kInflowHeldFraction = 0.1;
 void NdamSolver::gate_state(double dt) {
   inflow_now_ = cfg_.inflow ? cfg_.inflow(t_) : std::array<double, 2>{0.0, 0.0};
   inflow_owed_new_ = inflow_owed_;
+  inflow_held_new_ = inflow_held_;
   if (inflow_mass_) {
     if (const auto m = inflow_mass_(t_, dt)) {
       // Exact transfer: the step lets in what the upstream side let out (plus what earlier
-      // steps could not take), at a velocity capped at |u_mean| + kInflowSpeedupFloor, through
-      // an opening deepened up to kInflowDeepen h where that velocity does not carry it, from a
-      // depth of at least kInflowMinDepth; the rest waits for the next steps. In a step much shorter than the
-      // stable one the DAM's averaging term (m->held) can outweigh the flux with either sign:
-      // taken into the velocity it closed the inflow of a 2.6 m/s layer for 1e-5 s (Setup II
-      // coupled, 5 mm, t = 1.44999 s: out = -1.4e-8 m^2 against h u dt = 2.2e-7 m^2), and the
-      // pressure impulse of closing and reopening blew up the inflow column (docs/validation.md,
-      // "Runtime domain manager"). Such a step takes its velocity without it (kInflowHeldFraction).
-      const double target = m->mass + inflow_owed_, h = inflow_now_[0];
+      // steps could not take), at the DAM's u_mean through an opening whose depth the mass sets
+      // (up to kInflowDeepen h, then faster up to |u_mean| + kInflowSpeedupFloor), from a
+      // depth of at least kInflowMinDepth; the rest waits for the next steps. The DAM's
+      // averaging term (m->held) joins the held pool, of which the step lets in its share.
+      const double h = inflow_now_[0];
       const double ucap = std::abs(inflow_now_[1]) + kInflowSpeedupFloor;
-      const bool held = std::abs(m->held) > kInflowHeldFraction * std::abs(m->mass);
-      const double flowing = held ? target - m->held : target;
+      const double pool = inflow_held_ + m->held;
+      const double share = std::min(1.0, dt * ucap / cfg_.grid.dx());
+      const double cap = std::max(kHeldRelease * std::abs(m->mass - m->held), std::abs(m->held));
+      const double release = std::clamp(share * pool, -cap, cap);
+      const double flowing = (m->mass - m->held) + inflow_owed_ + release;
       double u = 0.0, depth = h;
-      if (h > kInflowMinDepth && flowing > 0.0) {
+      const double um = std::abs(inflow_now_[1]);
+      if (h > kInflowMinDepth && flowing > 0.0 && um > kInflowSpeedupFloor) {
+        // eq. (24): the DAM's u_mean; the mass sets the depth
+        u = um;
+        depth = flowing / (dt * u);
+        if (depth > kInflowDeepen * h) {
+          depth = kInflowDeepen * h;
+          u = std::min(flowing / (dt * depth), ucap);
+        }
+      } else if (h > kInflowMinDepth && flowing > 0.0) {  // a front arriving: u carries the mass
         u = std::min(flowing / (dt * h), ucap);
         if (u == ucap) depth = std::min(flowing / (dt * ucap), kInflowDeepen * h);
       }
       inflow_now_ = {depth, u};
-      inflow_owed_new_ = target - u * dt * depth;
+      inflow_held_new_ = pool - release;
+      inflow_owed_new_ = flowing - u * dt * depth;
     }
   }
   fill_velocity_ghosts(u_, w_);
@@ -168,7 +187,7 @@ double NdamSolver::inflow_pending() const {
     for (double a : markers_->inflow_accumulators()) acc += a;
   double all = 0.0;
   MPI_Allreduce(&acc, &all, 1, MPI_DOUBLE, MPI_SUM, comm_);
-  return inflow_owed_ + all * markers_->marker_area();
+  return inflow_owed_ + inflow_held_ + all * markers_->marker_area();
 }
 
 }  // namespace granflow::ndam

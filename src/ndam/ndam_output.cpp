@@ -220,6 +220,7 @@ NdamState NdamSolver::export_state() const {
     s.removed = marker_mass_.removed;
     s.mass0 = mass0_;
     s.inflow_owed = inflow_owed_;
+    s.inflow_held = inflow_held_;
   }
   // the lagged Coulomb ghosts (a u + b): the owners' faces of every column, and the G ghost
   // faces beyond each end of the box (rank 0 and the last rank own those)
@@ -285,6 +286,7 @@ void NdamSolver::import_state(const NdamState& s) {
     markers_->load(st);
     mass0_ = s.mass0;
     inflow_owed_ = inflow_owed_new_ = s.inflow_owed;
+    inflow_held_ = inflow_held_new_ = s.inflow_held;
     marker_mass_ = markers_->mass();
     const auto old_flags = mac_.flags;
     update_flags(*markers_, mac_.flags, mac_.empty_mask);
@@ -371,6 +373,7 @@ void NdamSolver::save(io::Checkpoint& c) const {
     c.set("ndam/markers_removed", static_cast<double>(s.removed));
     c.set("ndam/mass0", s.mass0);
     c.set("ndam/inflow_owed", s.inflow_owed);
+    c.set("ndam/inflow_held", s.inflow_held);
   }
   c.set("ndam/bed_factor", s.bed_factor);
   c.set("ndam/wall_factor", s.wall_factor);
@@ -419,6 +422,7 @@ void NdamSolver::load(const io::Checkpoint& c) {
     s.removed = static_cast<long long>(c.scalar("ndam/markers_removed"));
     s.mass0 = c.scalar("ndam/mass0");
     if (c.scalars().count("ndam/inflow_owed")) s.inflow_owed = c.scalar("ndam/inflow_owed");
+    if (c.scalars().count("ndam/inflow_held")) s.inflow_held = c.scalar("ndam/inflow_held");
   }
   if (c.arrays().count("ndam/bed_factor")) {
     s.bed_factor = c.array("ndam/bed_factor");

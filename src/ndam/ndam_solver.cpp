@@ -497,6 +497,7 @@ void NdamSolver::accept() {
     const auto tm = Clock::now();
     std::swap(markers_, markers_new_);
     inflow_owed_ = inflow_owed_new_;
+    inflow_held_ = inflow_held_new_;
     transfer_.in = marker_mass_new_.injected_area - marker_mass_.injected_area;
     transfer_.out = marker_mass_new_.removed_area - marker_mass_.removed_area;
     marker_mass_ = marker_mass_new_;

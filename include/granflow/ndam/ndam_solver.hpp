@@ -179,7 +179,8 @@ class NdamSolver final : public core::Stepper {
                   InflowPressure pressure = InflowPressure::None, double K = 1.0,
                   InflowMass mass = nullptr);
   /// Inflow area not yet in the box as markers (collective): the carried mass of `mass` above
-  /// plus the fractional marker accumulators of the gate. Injected area + this = the total of
+  /// (what a step could not take, and the DAM ledger's averaging terms still held back) plus
+  /// the fractional marker accumulators of the gate. Injected area + this = the total of
   /// the `mass` provider (to round-off) when one is set.
   double inflow_pending() const;
   struct Transfer {
@@ -312,6 +313,9 @@ class NdamSolver final : public core::Stepper {
   std::array<double, 2> inflow_now_{0.0, 0.0};  // {h_in, u_in} of the current step
   InflowMass inflow_mass_;                        // exact mass of a step (1D-to-2D), optional
   double inflow_owed_ = 0.0, inflow_owed_new_ = 0.0;  // carried inflow mass [m^2]
+  // the DAM ledger's averaging terms not yet let in (gate_state): released at the rate the
+  // flow crosses one 2D cell, so that they do not beat the inflow velocity step by step [m^2]
+  double inflow_held_ = 0.0, inflow_held_new_ = 0.0;
 
   // projection
   long long pin_ = 0;        // pressure cell pinned to phi = 0 (the first fluid cell)

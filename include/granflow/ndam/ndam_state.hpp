@@ -21,6 +21,7 @@ struct NdamState {
   long long injected = 0, removed = 0;       ///< global marker counters
   double mass0 = 0.0;                        ///< marker area at t = 0 [m^2]
   double inflow_owed = 0.0;                  ///< inflow mass carried to later steps [m^2]
+  double inflow_held = 0.0;                  ///< averaging terms of the 1D side held back [m^2]
   // lagged factors the next step's ghost values read (empty: computed from this state)
   // (the Coulomb ghosts are affine: u(gi, -1) = a u(gi, 0) + b, w(nx, k) = a w(nx - 1, k) + b)
   std::vector<double> bed_factor;   ///< a of u(gi, -1), gi = -G .. nx + G - 1
