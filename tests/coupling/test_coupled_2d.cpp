@@ -606,9 +606,9 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
   // from 0.75 s the deposit profile within the 5 % (L2 of the three-column mean over
   // x > 0.85 m; measured at most 3.8 % at 5 mm, against the 1.5-4 % two full 2D runs differ by);
   EXPECT_LT(worst_dep, 0.05);
-  // and the depth at the wall within 8 % (one column, not averaged: measured at most 3.5 %, 5.5 %
-  // at 1.5 s since the short-step inflow velocity of kInflowHeldFraction; the single-column
-  // scatter above is 5-7 %);
+  // and the depth at the wall within 8 % (one column, not averaged: measured at most 3.5 %; 5.5 %
+  // at 1.5 s with the short-step inflow velocity of 2026-12-01, 0.2 % since the inflow takes the
+  // DAM's u_mean (2026-12-02); the single-column scatter above is 5-7 %);
   EXPECT_LT(worst_wall, 0.08);
   // the wall-bottom pressure, averaged over each output interval (the single-step value of one
   // cell swings by 10-20 % in both runs), within the 10 % from 0.7 s at every output,
