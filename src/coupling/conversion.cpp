@@ -107,7 +107,7 @@ struct NewBox {
   double dx = 0.0, dz = 0.0;
   std::vector<int> src_box, src_col;  // per column: the old box and column copied, or -1
   std::vector<double> mass, momentum;  // per filled column, from the field [m^2, m^3/s]
-  double owed = 0.0;                   // inflow mass to carry (into its held pool) [m^2]
+  double held = 0.0;                   // inflow mass to carry, into its held pool [m^2]
 };
 
 }  // namespace
@@ -228,7 +228,7 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
       continue;
     }
     if (to) {
-      to->owed += pending;
+      to->held += pending;
       continue;
     }
     // No 2D part follows: the old interface's upstream side (a DAM) has already let this mass
@@ -360,7 +360,7 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
         rec.remainder_given_back += mine;
         rest -= mine;
       } else if (i > 0 || first > 0) {
-        boxes[q].owed += mine;  // injected later through the upstream interface
+        boxes[q].held += mine;  // injected later through the upstream interface
         rec.remainder_given_back += mine;
         rec.remainder_to_inflow += mine;
         rest -= mine;
@@ -422,7 +422,7 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
     // gate's fractional markers (up to one marker per row, 2.1e-5 m^2 in a 1D -> 2D move of the
     // suite at 10 mm, 60 % of a step's mass) opened the new first 2D column a row deeper than
     // the layer, and it filled and slowed for 0.01 s (u_mean 2.18 against 2.53 m/s).
-    st.inflow_held += nb.owed;
+    st.inflow_held += nb.held;
     // centre velocity of column j (cell k) and its depth, for copied and filled columns
     std::vector<std::vector<double>> uc(static_cast<std::size_t>(nx),
                                         std::vector<double>(static_cast<std::size_t>(nz), 0.0));

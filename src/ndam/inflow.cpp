@@ -74,26 +74,26 @@ void NdamSolver::gate_state(double dt) {
       // (up to kInflowDeepen h, then faster up to |u_mean| + kInflowSpeedupFloor), from a
       // depth of at least kInflowMinDepth; the rest waits for the next steps. The DAM's
       // averaging term (m->held) joins the held pool, of which the step lets in its share.
-      const double h = inflow_now_[0];
-      const double ucap = std::abs(inflow_now_[1]) + kInflowSpeedupFloor;
+      const double h = inflow_now_[0], um = std::abs(inflow_now_[1]);
+      const double ucap = um + kInflowSpeedupFloor;
       const double pool = inflow_held_ + m->held;
       const double share = std::min(1.0, dt * ucap / cfg_.grid.dx());
       const double cap = std::max(kHeldRelease * std::abs(m->mass - m->held), std::abs(m->held));
       const double release = std::clamp(share * pool, -cap, cap);
       const double flowing = (m->mass - m->held) + inflow_owed_ + release;
       double u = 0.0, depth = h;
-      const double um = std::abs(inflow_now_[1]);
-      if (h > kInflowMinDepth && flowing > 0.0 && um > kInflowSpeedupFloor) {
-        // eq. (24): the DAM's u_mean; the mass sets the depth
-        u = um;
-        depth = flowing / (dt * u);
-        if (depth > kInflowDeepen * h) {
-          depth = kInflowDeepen * h;
-          u = std::min(flowing / (dt * depth), ucap);
+      if (h > kInflowMinDepth && flowing > 0.0) {
+        if (um > kInflowSpeedupFloor) {  // eq. (24): the DAM's u_mean; the mass sets the depth
+          u = um;
+          depth = flowing / (dt * u);
+          if (depth > kInflowDeepen * h) {
+            depth = kInflowDeepen * h;
+            u = std::min(flowing / (dt * depth), ucap);
+          }
+        } else {  // a front arriving: the velocity carries the mass
+          u = std::min(flowing / (dt * h), ucap);
+          if (u == ucap) depth = std::min(flowing / (dt * ucap), kInflowDeepen * h);
         }
-      } else if (h > kInflowMinDepth && flowing > 0.0) {  // a front arriving: u carries the mass
-        u = std::min(flowing / (dt * h), ucap);
-        if (u == ucap) depth = std::min(flowing / (dt * ucap), kInflowDeepen * h);
       }
       inflow_now_ = {depth, u};
       inflow_held_new_ = pool - release;

@@ -313,8 +313,9 @@ class NdamSolver final : public core::Stepper {
   std::array<double, 2> inflow_now_{0.0, 0.0};  // {h_in, u_in} of the current step
   InflowMass inflow_mass_;                        // exact mass of a step (1D-to-2D), optional
   double inflow_owed_ = 0.0, inflow_owed_new_ = 0.0;  // carried inflow mass [m^2]
-  // the DAM ledger's averaging terms not yet let in (gate_state): released at the rate the
-  // flow crosses one 2D cell, so that they do not beat the inflow velocity step by step [m^2]
+  // held pool (gate_state): the DAM ledger's averaging terms and a move's carried mass not yet
+  // let in, released at the rate the flow crosses one 2D cell so that they do not beat the
+  // inflow step by step [m^2]
   double inflow_held_ = 0.0, inflow_held_new_ = 0.0;
 
   // projection
