@@ -119,7 +119,7 @@ class Simulation {
   std::map<std::string, std::string> build_info_;
   double memory_estimate_ = 0.0;
   struct MemorySample {
-    double t, resident, peak, material;  ///< [s], [B], [B], [m^2]
+    double t, resident, peak, heap, material;  ///< [s], [B], [B], [B], [m^2]
   };
   std::vector<MemorySample> memory_samples_;  ///< at each output (summary.json "memory")
   struct Io;
