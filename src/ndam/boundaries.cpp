@@ -44,6 +44,21 @@ bool coulomb_ghost(double q, double c_l, double d, double v, double& a, double& 
   b = 0.0;
   return true;
 }
+
+// The same ghost with the clamp decided beforehand (`stuck`): the nonlinear pressure system
+// keeps the clamps of its first evaluation (NdamSolver::stuck_frozen_), so that its map P(q)
+// is continuous in q. Unclamped, a may lie below -1 there (a drag a little stiffer than
+// sticking, which only adds to the diagonal of the momentum matrix).
+bool coulomb_ghost_as(bool stuck, double q, double c_l, double d, double v, double& a, double& b) {
+  if (stuck) {
+    a = -1.0;
+    b = 0.0;
+  } else {
+    a = 1.0 - q * d;
+    b = -q * (c_l - d * v);
+  }
+  return stuck;
+}
 }  // namespace
 
 NdamSolver::Ref NdamSolver::u_ref(int i, int k) const {
@@ -270,10 +285,14 @@ void NdamSolver::update_friction(const Field& p_yield) {
   const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz(), m = cfg_.m_c;
   // the tangent of (12) at u^n: c_l = c(u^n), d = c'(u^n) = m exp(-m |u^n|)
-  auto tangent = [&](double q, double un, double& a, double& b) {
+  // (frozen: the clamp of the nonlinear pressure system's first evaluation, see stuck_frozen_)
+  auto tangent = [&](double q, double un, double& a, double& b, const std::uint8_t* frozen) {
     const double e = std::exp(-m * std::abs(un));
-    return coulomb_ghost(q, (un >= 0.0 ? 1.0 : -1.0) * (1.0 - e), m * e, un, a, b);
+    const double c = (un >= 0.0 ? 1.0 : -1.0) * (1.0 - e);
+    return frozen ? coulomb_ghost_as(*frozen != 0, q, c, m * e, un, a, b)
+                  : coulomb_ghost(q, c, m * e, un, a, b);
   };
+  const bool frozen = stuck_frozen_;
   const auto nb = static_cast<std::size_t>(nxl + 2 * G);
   bed_a_.assign(nb, 1.0);
   bed_b_.assign(nb, 0.0);
@@ -300,7 +319,8 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double N = std::max(0.0, pb + 2.0 * nub * dudx);
       const auto f = static_cast<std::size_t>(i + G);
       bed_q_[f] = dz * phys_.tan_delta * N / nub;
-      bed_stuck_[f] = tangent(bed_q_[f], u_(i, 0), bed_a_[f], bed_b_[f]);
+      bed_stuck_[f] = tangent(bed_q_[f], u_(i, 0), bed_a_[f], bed_b_[f],
+                              frozen ? &bed_stuck_first_[f] : nullptr);
     }
   exchange_bed_factors();
   wall_a_.assign(static_cast<std::size_t>(nz), 1.0);
@@ -325,7 +345,8 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double N = std::max(0.0, pw + 2.0 * nuw * dwdz);
       const auto f = static_cast<std::size_t>(k);
       wall_q_[f] = dx * phys_.tan_delta * N / nuw;
-      wall_stuck_[f] = tangent(wall_q_[f], w_(i, k), wall_a_[f], wall_b_[f]);
+      wall_stuck_[f] = tangent(wall_q_[f], w_(i, k), wall_a_[f], wall_b_[f],
+                               frozen ? &wall_stuck_first_[f] : nullptr);
     }
 }
 
@@ -379,10 +400,12 @@ double NdamSolver::relinearise_friction(const Field& us, const Field& ws,
   if (!relinearised) return r;
   for (const Face& fc : faces) {
     const CoulombMean cm = coulomb_mean(m, fc.u0, fc.u1);
-    if (fc.bed)
-      bed_stuck_[fc.f] = coulomb_ghost(fc.q, cm.c, cm.dc, fc.u1, bed_a_[fc.f], bed_b_[fc.f]);
-    else
-      wall_stuck_[fc.f] = coulomb_ghost(fc.q, cm.c, cm.dc, fc.u1, wall_a_[fc.f], wall_b_[fc.f]);
+    auto& stuck = fc.bed ? bed_stuck_ : wall_stuck_;
+    double& a = fc.bed ? bed_a_[fc.f] : wall_a_[fc.f];
+    double& b = fc.bed ? bed_b_[fc.f] : wall_b_[fc.f];
+    // a face left unclamped by the first evaluation of the nonlinear pressure system stays so
+    stuck[fc.f] = stuck_frozen_ ? coulomb_ghost_as(false, fc.q, cm.c, cm.dc, fc.u1, a, b)
+                                : coulomb_ghost(fc.q, cm.c, cm.dc, fc.u1, a, b);
   }
   exchange_bed_factors();
   return r;

@@ -27,7 +27,16 @@ void NdamSolver::project_at(const std::vector<double>& q, double dt) {
     for (int k = 0; k < nz; ++k) p_trial_(i, k) = q[static_cast<std::size_t>(i * nz + k)];
   fill_scalar_ghosts(p_trial_);
   update_viscosity(p_trial_);
+  // The no-slip clamps of the Coulomb faces are those of the solve's first evaluation (the
+  // lagged step, q = p^n) in every later one (stuck_frozen_): decided anew at each q they make
+  // P(q) jump and the fixed point cycle (ndam_solver.hpp).
+  const bool first_evaluation = evaluations_in_solve_++ == 0;
+  stuck_frozen_ = !first_evaluation;
   project(dt);
+  if (first_evaluation) {  // the clamps of the lagged step, for the solve's later evaluations
+    bed_stuck_first_ = bed_stuck_;
+    wall_stuck_first_ = wall_stuck_;
+  }
   if (cfg_.momentum == Momentum::Implicit) {
     // The rotational correction of project(), -2 nu_rot div u*, at the predictor of the first
     // evaluation of the solve (q = p^n, the lagged step) instead of u*(q): see
@@ -205,6 +214,7 @@ void NdamSolver::solve_pressure_system(double dt) {
   const std::size_t n = static_cast<std::size_t>(nxl) * static_cast<std::size_t>(nz);
   newton_dt_ = dt;
   div_lagged_.clear();  // the first evaluation (at q0 = p^n) records div u* of the lagged step
+  evaluations_in_solve_ = 0;
   newton_scale_ = 1.0 / (std::abs(phys_.gz) * cfg_.grid.lz *
                          std::sqrt(static_cast<double>(cfg_.grid.nx) * nz));
   if (p_trial_.data().empty()) p_trial_ = Field(nxl, nz);
@@ -232,6 +242,7 @@ void NdamSolver::solve_pressure_system(double dt) {
                       : newton_->solve(q);
   // the state of the step: P at the returned iterate (re-evaluated unless it was the last one)
   if (q != q_evaluated_) project_at(q, dt);
+  stuck_frozen_ = false;
   ++stats_.newton_solves;
   stats_.newton_iterations += newton_stats_.newton_iterations;
   stats_.newton_krylov += newton_stats_.krylov_iterations;

@@ -304,6 +304,14 @@ class NdamSolver final : public core::Stepper {
   // 0: no friction there) and whether its ghost is clamped to sticking (update_friction)
   std::vector<double> bed_a_, bed_b_, wall_a_, wall_b_, bed_q_, wall_q_;
   std::vector<std::uint8_t> bed_stuck_, wall_stuck_;
+  // The nonlinear pressure system keeps the no-slip clamps of its first evaluation (q = p^n,
+  // the lagged step) in its later ones: a clamp decided anew at each trial pressure q makes
+  // P(q) jump where a face's drag crosses the no-slip one (the ghost's b drops to 0), and the
+  // fixed point then cycles (Setup II at 5 mm stopped at 0.624 s, the wall-bottom cell's
+  // mismatch changing sign with the wall face's clamp). stuck_frozen_ is true inside a solve
+  // after its first evaluation; *_stuck_first_ are that evaluation's clamps.
+  bool stuck_frozen_ = false;
+  std::vector<std::uint8_t> bed_stuck_first_, wall_stuck_first_;
   // dt over which the friction factor of the last step grew by 1 (stable_dt; <= 0: no limit)
   double friction_dt_ = -1.0;
   mutable const char* dt_cause_ = "";  // set by stable_dt() (a string literal)
@@ -334,6 +342,7 @@ class NdamSolver final : public core::Stepper {
   std::vector<double> q_evaluated_;
   // div u* of the solve's first evaluation (q = p^n): the rotational correction's predictor
   std::vector<double> div_lagged_;
+  int evaluations_in_solve_ = 0;  // projections of the current nonlinear solve so far
   solvers::NonlinearStats newton_stats_;
   bool newton_failed_ = false;
   std::array<double, 3> newton_fail_cell_{0.0, 0.0, 0.0};  // x, z, |q - P(q)| of a failure
