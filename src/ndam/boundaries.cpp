@@ -36,28 +36,19 @@ NdamSolver::Ref wall_ghost(const Wall& wl, NdamSolver::Ref r, double a, double b
 //   a = 1 - q d,  b = -q (c_l - d v).
 // a < -1 is a drag stiffer than sticking: clamped to the no-slip ghost (a = -1, b = 0), since
 // regularised friction cannot hold more than sticking does. Returns whether it was clamped.
-bool coulomb_ghost(double q, double c_l, double d, double v, double& a, double& b) {
+// `decided`, when given, is the clamp decided beforehand: the nonlinear pressure system keeps
+// the clamps of its first evaluation (NdamSolver::stuck_frozen_), so that its map P(q) is
+// continuous in q; unclamped, a may then lie below -1 (a drag a little stiffer than sticking,
+// which only adds to the diagonal of the momentum matrix).
+bool coulomb_ghost(double q, double c_l, double d, double v, double& a, double& b,
+                   const std::uint8_t* decided = nullptr) {
   a = 1.0 - q * d;
   b = -q * (c_l - d * v);
-  if (a >= -1.0) return false;
+  const bool stuck = decided ? *decided != 0 : a < -1.0;
+  if (!stuck) return false;
   a = -1.0;
   b = 0.0;
   return true;
-}
-
-// The same ghost with the clamp decided beforehand (`stuck`): the nonlinear pressure system
-// keeps the clamps of its first evaluation (NdamSolver::stuck_frozen_), so that its map P(q)
-// is continuous in q. Unclamped, a may lie below -1 there (a drag a little stiffer than
-// sticking, which only adds to the diagonal of the momentum matrix).
-bool coulomb_ghost_as(bool stuck, double q, double c_l, double d, double v, double& a, double& b) {
-  if (stuck) {
-    a = -1.0;
-    b = 0.0;
-  } else {
-    a = 1.0 - q * d;
-    b = -q * (c_l - d * v);
-  }
-  return stuck;
 }
 }  // namespace
 
@@ -285,14 +276,11 @@ void NdamSolver::update_friction(const Field& p_yield) {
   const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz(), m = cfg_.m_c;
   // the tangent of (12) at u^n: c_l = c(u^n), d = c'(u^n) = m exp(-m |u^n|)
-  // (frozen: the clamp of the nonlinear pressure system's first evaluation, see stuck_frozen_)
-  auto tangent = [&](double q, double un, double& a, double& b, const std::uint8_t* frozen) {
+  // (decided: the clamp of the nonlinear pressure system's first evaluation, stuck_frozen_)
+  auto tangent = [&](double q, double un, double& a, double& b, const std::uint8_t* decided) {
     const double e = std::exp(-m * std::abs(un));
-    const double c = (un >= 0.0 ? 1.0 : -1.0) * (1.0 - e);
-    return frozen ? coulomb_ghost_as(*frozen != 0, q, c, m * e, un, a, b)
-                  : coulomb_ghost(q, c, m * e, un, a, b);
+    return coulomb_ghost(q, (un >= 0.0 ? 1.0 : -1.0) * (1.0 - e), m * e, un, a, b, decided);
   };
-  const bool frozen = stuck_frozen_;
   const auto nb = static_cast<std::size_t>(nxl + 2 * G);
   bed_a_.assign(nb, 1.0);
   bed_b_.assign(nb, 0.0);
@@ -320,7 +308,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const auto f = static_cast<std::size_t>(i + G);
       bed_q_[f] = dz * phys_.tan_delta * N / nub;
       bed_stuck_[f] = tangent(bed_q_[f], u_(i, 0), bed_a_[f], bed_b_[f],
-                              frozen ? &bed_stuck_first_[f] : nullptr);
+                              stuck_frozen_ ? &bed_stuck_first_[f] : nullptr);
     }
   exchange_bed_factors();
   wall_a_.assign(static_cast<std::size_t>(nz), 1.0);
@@ -346,7 +334,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const auto f = static_cast<std::size_t>(k);
       wall_q_[f] = dx * phys_.tan_delta * N / nuw;
       wall_stuck_[f] = tangent(wall_q_[f], w_(i, k), wall_a_[f], wall_b_[f],
-                               frozen ? &wall_stuck_first_[f] : nullptr);
+                               stuck_frozen_ ? &wall_stuck_first_[f] : nullptr);
     }
 }
 
@@ -400,12 +388,13 @@ double NdamSolver::relinearise_friction(const Field& us, const Field& ws,
   if (!relinearised) return r;
   for (const Face& fc : faces) {
     const CoulombMean cm = coulomb_mean(m, fc.u0, fc.u1);
-    auto& stuck = fc.bed ? bed_stuck_ : wall_stuck_;
-    double& a = fc.bed ? bed_a_[fc.f] : wall_a_[fc.f];
-    double& b = fc.bed ? bed_b_[fc.f] : wall_b_[fc.f];
     // a face left unclamped by the first evaluation of the nonlinear pressure system stays so
-    stuck[fc.f] = stuck_frozen_ ? coulomb_ghost_as(false, fc.q, cm.c, cm.dc, fc.u1, a, b)
-                                : coulomb_ghost(fc.q, cm.c, cm.dc, fc.u1, a, b);
+    static constexpr std::uint8_t kUnclamped = 0;
+    const std::uint8_t* decided = stuck_frozen_ ? &kUnclamped : nullptr;
+    if (fc.bed)
+      bed_stuck_[fc.f] = coulomb_ghost(fc.q, cm.c, cm.dc, fc.u1, bed_a_[fc.f], bed_b_[fc.f], decided);
+    else
+      wall_stuck_[fc.f] = coulomb_ghost(fc.q, cm.c, cm.dc, fc.u1, wall_a_[fc.f], wall_b_[fc.f], decided);
   }
   exchange_bed_factors();
   return r;

@@ -30,12 +30,11 @@ void NdamSolver::project_at(const std::vector<double>& q, double dt) {
   // The no-slip clamps of the Coulomb faces are those of the solve's first evaluation (the
   // lagged step, q = p^n) in every later one (stuck_frozen_): decided anew at each q they make
   // P(q) jump and the fixed point cycle (ndam_solver.hpp).
-  const bool first_evaluation = evaluations_in_solve_++ == 0;
-  stuck_frozen_ = !first_evaluation;
   project(dt);
-  if (first_evaluation) {  // the clamps of the lagged step, for the solve's later evaluations
+  if (!stuck_frozen_) {  // the first evaluation: its clamps, for the solve's later ones
     bed_stuck_first_ = bed_stuck_;
     wall_stuck_first_ = wall_stuck_;
+    stuck_frozen_ = true;
   }
   if (cfg_.momentum == Momentum::Implicit) {
     // The rotational correction of project(), -2 nu_rot div u*, at the predictor of the first
@@ -214,7 +213,7 @@ void NdamSolver::solve_pressure_system(double dt) {
   const std::size_t n = static_cast<std::size_t>(nxl) * static_cast<std::size_t>(nz);
   newton_dt_ = dt;
   div_lagged_.clear();  // the first evaluation (at q0 = p^n) records div u* of the lagged step
-  evaluations_in_solve_ = 0;
+  stuck_frozen_ = false;  // the first evaluation decides the clamps (project_at)
   newton_scale_ = 1.0 / (std::abs(phys_.gz) * cfg_.grid.lz *
                          std::sqrt(static_cast<double>(cfg_.grid.nx) * nz));
   if (p_trial_.data().empty()) p_trial_ = Field(nxl, nz);

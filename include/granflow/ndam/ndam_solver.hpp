@@ -309,7 +309,7 @@ class NdamSolver final : public core::Stepper {
   // P(q) jump where a face's drag crosses the no-slip one (the ghost's b drops to 0), and the
   // fixed point then cycles (Setup II at 5 mm stopped at 0.624 s, the wall-bottom cell's
   // mismatch changing sign with the wall face's clamp). stuck_frozen_ is true inside a solve
-  // after its first evaluation; *_stuck_first_ are that evaluation's clamps.
+  // once its first evaluation is done; *_stuck_first_ are that evaluation's clamps.
   bool stuck_frozen_ = false;
   std::vector<std::uint8_t> bed_stuck_first_, wall_stuck_first_;
   // dt over which the friction factor of the last step grew by 1 (stable_dt; <= 0: no limit)
@@ -342,7 +342,6 @@ class NdamSolver final : public core::Stepper {
   std::vector<double> q_evaluated_;
   // div u* of the solve's first evaluation (q = p^n): the rotational correction's predictor
   std::vector<double> div_lagged_;
-  int evaluations_in_solve_ = 0;  // projections of the current nonlinear solve so far
   solvers::NonlinearStats newton_stats_;
   bool newton_failed_ = false;
   std::array<double, 3> newton_fail_cell_{0.0, 0.0, 0.0};  // x, z, |q - P(q)| of a failure
