@@ -186,8 +186,9 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "how the pressure enters the yield stress tau_y = tau_c + tau_p p and the Coulomb "
              "law (13): Lagged: at t^n (one predictor-projection per step); Nonlinear: at "
              "t^{n+1}, the paper's nonlinear pressure system (10)+(13)+(14), solved in every "
-             "step by NOX (Jacobian-free Newton-Krylov on the fixed-point form q = P(q) of one "
-             "predictor-projection; 'Pressure Newton'). With tau_p = 0 and no Coulomb side the "
+             "step on the fixed-point form q = P(q) of one predictor-projection ('Pressure "
+             "iteration'; tolerances in 'Pressure Newton'), the no-slip clamps of the Coulomb "
+             "faces kept from the lagged step. With tau_p = 0 and no Coulomb side the "
              "system is linear and both are the same",
              {"Lagged", "Nonlinear"});
     pl->set("Pressure Newton", d.pressure_newton,
