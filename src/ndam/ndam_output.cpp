@@ -457,7 +457,9 @@ NdamStatistics NdamSolver::statistics() const {
   s.retired_pressure_setups += pressure_->preconditioner_setups();
   s.retired_pressure_setup_seconds += pressure_->preconditioner_setup_seconds();
   s.retired_pressure_patterns += pressure_->pattern_builds();
+  s.retired_preconditioner_retries += pressure_->preconditioner_retries();
   if (momentum_) {
+    s.retired_preconditioner_retries += momentum_->preconditioner_retries();
     s.retired_momentum_setups += momentum_->preconditioner_setups();
     s.retired_momentum_setup_seconds += momentum_->preconditioner_setup_seconds();
     s.retired_momentum_patterns += momentum_->pattern_builds();
@@ -516,6 +518,10 @@ void NdamSolver::report(nlohmann::json& s) const {
       {"momentum_preconditioner_setup_seconds",
        (momentum_ ? momentum_->preconditioner_setup_seconds() : 0.0) +
            stats_.retired_momentum_setup_seconds},
+      {"preconditioner_retries",
+       pressure_->preconditioner_retries() +
+           (momentum_ ? momentum_->preconditioner_retries() : 0LL) +
+           stats_.retired_preconditioner_retries},
       {"free_surface", cfg_.free_surface}};
   if (cfg_.free_surface) {
     s["ndam"]["markers"] = marker_mass_.count;

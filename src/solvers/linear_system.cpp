@@ -125,6 +125,7 @@ struct LinearSystem::Impl {
   int fresh_iters = -1;  // iterations of the first solve with a fresh preconditioner
   int last_iters = 0;
   bool last_converged = true;
+  bool held = false;  // hold_preconditioner(): keep it over assemblies while it is effective
   // Trivial rows (a single nonzero diagonal entry, not referenced by another row: identity rows
   // of fixed faces, Dirichlet and empty cells) are solved as x = b / d and left out of the
   // Krylov system, which then holds only the coupled rows (in the N-DAM chute: the cells with
@@ -148,6 +149,7 @@ struct LinearSystem::Impl {
   long long repeats = 0;            // assemblies that took the repeat path
   long long prec_setups = 0;        // preconditioners built
   double prec_setup_seconds = 0.0;  // their total setup time
+  long long prec_retries = 0;        // solves repeated with a fresh one (a kept one failed)
 };
 
 LinearSystem::LinearSystem(MPI_Comm comm, long long global_rows, long long first_row,
@@ -185,6 +187,7 @@ LinearSystem::~LinearSystem() = default;
 long long LinearSystem::preconditioner_setups() const { return impl_->prec_setups; }
 double LinearSystem::preconditioner_setup_seconds() const { return impl_->prec_setup_seconds; }
 long long LinearSystem::pattern_builds() const { return impl_->pattern_builds; }
+long long LinearSystem::preconditioner_retries() const { return impl_->prec_retries; }
 long long LinearSystem::repeat_assemblies() const { return impl_->repeats; }
 
 long long LinearSystem::global_rows() const {
@@ -554,8 +557,10 @@ void LinearSystem::Impl::update_staleness() {
   ++prec_age;
   const bool effective =
       last_converged && fresh_iters >= 0 && last_iters <= (3 * fresh_iters) / 2 + 2;
-  prec_stale = prec.is_null() || prec_age > reuse || !effective || built_type != prec_type;
+  prec_stale = prec.is_null() || (prec_age > reuse && !held) || !effective || built_type != prec_type;
 }
+
+void LinearSystem::hold_preconditioner(bool hold) { impl_->held = hold; }
 
 namespace {
 using NO = Map::node_type;
@@ -647,7 +652,7 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   }
   const LO nk = static_cast<LO>(m.kept.size());
   auto t0 = Clock::now();
-  const bool fresh = m.prec_stale;
+  bool fresh = m.prec_stale;
   if (m.prec_stale) {
     m.prec = build_preconditioner(m.A, m.prec_type, m.params, m.muelu);
     m.built_type = m.prec_type;
@@ -700,6 +705,31 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   Belos::ReturnType r = Belos::Unconverged;
   try {
     r = solver->solve();
+    if (r != Belos::Converged && !fresh) {
+      // A kept (lagged or held) preconditioner that no longer suits the matrix: build one for
+      // it and solve again from the same initial guess, so that reuse never costs convergence.
+      const int lagged_iters = solver->getNumIters();
+      const auto t2 = Clock::now();
+      m.prec = build_preconditioner(m.A, m.prec_type, m.params, m.muelu);
+      m.built_type = m.prec_type;
+      m.prec_age = 0;
+      const double setup = std::chrono::duration<double>(Clock::now() - t2).count();
+      st.setup_seconds += setup;
+      m.prec_setup_seconds += setup;
+      ++m.prec_setups;
+      ++m.prec_retries;
+      {
+        auto xv = X->getDataNonConst(0);
+        for (LO i = 0; i < nk; ++i) xv[i] = x[static_cast<size_t>(m.kept[static_cast<size_t>(i)])];
+      }
+      problem = rcp(new Belos::LinearProblem<SC, MV, OP>(Aop, X, B));
+      problem->setLeftPrec(m.prec);
+      problem->setProblem();
+      solver->setProblem(problem);
+      r = solver->solve();
+      total_iterations_ += lagged_iters;
+      fresh = true;
+    }
   } catch (const std::exception&) {
     // Belos throws on NaN/Inf in the residual: report an unconverged solve with a non-finite
     // solution, so that the model's check() stops the run with a diagnosis.

@@ -24,6 +24,7 @@ struct NdamStatistics {
   long long retired_pressure_setups = 0, retired_momentum_setups = 0;
   long long retired_pressure_patterns = 0, retired_momentum_patterns = 0;
   double retired_pressure_setup_seconds = 0.0, retired_momentum_setup_seconds = 0.0;
+  long long retired_preconditioner_retries = 0;  // solves repeated with a fresh preconditioner
 
   // the Coulomb friction of the step (Newton's method in the momentum step): solves beyond the
   // first of a step, the most solves of a step, steps that stopped at the limit and their worst
@@ -75,6 +76,7 @@ struct NdamStatistics {
     retired_momentum_patterns += o.retired_momentum_patterns;
     retired_pressure_setup_seconds += o.retired_pressure_setup_seconds;
     retired_momentum_setup_seconds += o.retired_momentum_setup_seconds;
+    retired_preconditioner_retries += o.retired_preconditioner_retries;
     friction_solves += o.friction_solves;
     friction_unconverged += o.friction_unconverged;
     friction_max_solves = std::max(friction_max_solves, o.friction_max_solves);

@@ -72,6 +72,14 @@ class LinearSystem {
   /// The next solve sets up a new preconditioner (a restart point: a lagged preconditioner is
   /// state that no checkpoint holds, so straight and restarted runs both rebuild here).
   void invalidate_preconditioner();
+  /// While held, the assemblies that follow keep the current preconditioner (same pattern and
+  /// type) as long as it stays effective (its last solve converged within 1.5 times the
+  /// iterations of its first, plus 2), whatever 'Preconditioner reuse' says: for a sequence of
+  /// nearby matrices inside one step, such as the N-DAM's nonlinear pressure iterations, whose
+  /// matrices differ only by nu_eff at nearby trial pressures. Any solve with a kept
+  /// (held or lagged) preconditioner that does not converge is repeated from the same initial
+  /// guess with a fresh one (counted in preconditioner_retries()).
+  void hold_preconditioner(bool hold);
 
   long long global_rows() const;
   int local_rows() const;
@@ -82,6 +90,8 @@ class LinearSystem {
   long long preconditioner_setups() const;
   double preconditioner_setup_seconds() const;
   long long pattern_builds() const;
+  /// Solves repeated with a fresh preconditioner because a kept one did not converge.
+  long long preconditioner_retries() const;
   /// Assemblies that added the previous one's (row, column) sequence and took the repeat path
   /// (values straight into their places; the matrix is the one a full assembly would give).
   long long repeat_assemblies() const;
