@@ -152,6 +152,7 @@ TEST(LinearSystemHold, HeldPreconditionerIsKeptAndReplacedWhereItFails) {
   EXPECT_LE(near.iterations, (3 * first.iterations) / 2 + 2);
   // still held, the row-scaled matrix: the kept preconditioner fails, a fresh one is built and
   // the solve repeated from the same initial guess
+  const long long before = ls.total_iterations();
   const SolveStats bad = assemble_scaled_and_solve(ls, 1.05, true);
   std::printf("[measured] held on the scaled rows: retried %lld time(s), the fresh one's solve "
               "%d iterations\n",
@@ -161,6 +162,9 @@ TEST(LinearSystemHold, HeldPreconditionerIsKeptAndReplacedWhereItFails) {
   EXPECT_EQ(ls.preconditioner_retries(), 1);
   EXPECT_EQ(ls.preconditioner_setups(), 2);
   EXPECT_GT(bad.setup_seconds, 0.0);
+  // the held solve gave up after 4 n + 20 iterations (n = 12, the first solve with it), not at
+  // the list's 150
+  EXPECT_EQ(ls.total_iterations() - before, 4 * first.iterations + 20 + bad.iterations);
   // released: the next assembly builds its own, as 'Preconditioner reuse' = 0 asks
   ls.hold_preconditioner(false);
   const SolveStats again = assemble_scaled_and_solve(ls, 1.0, false);

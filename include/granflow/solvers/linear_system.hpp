@@ -76,9 +76,10 @@ class LinearSystem {
   /// type) as long as it stays effective (its last solve converged within 1.5 times the
   /// iterations of its first, plus 2), whatever 'Preconditioner reuse' says: for a sequence of
   /// nearby matrices inside one step, such as the N-DAM's nonlinear pressure iterations, whose
-  /// matrices differ only by nu_eff at nearby trial pressures. Any solve with a kept
-  /// (held or lagged) preconditioner that does not converge is repeated from the same initial
-  /// guess with a fresh one (counted in preconditioner_retries()).
+  /// matrices differ only by nu_eff at nearby trial pressures. A solve with a held
+  /// preconditioner stops after 4 n + 20 iterations (n: the first solve with it), and any solve
+  /// with a kept (held or lagged) preconditioner that does not converge is repeated from the
+  /// same initial guess with a fresh one (counted in preconditioner_retries()).
   void hold_preconditioner(bool hold);
 
   long long global_rows() const;
