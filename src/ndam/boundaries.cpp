@@ -386,11 +386,11 @@ double NdamSolver::relinearise_friction(const Field& us, const Field& ws,
   over = detail::allreduce_max(over, comm_);
   relinearised = iterate(r, r_acc, over);
   if (!relinearised) return r;
+  // a face left unclamped by the first evaluation of the nonlinear pressure system stays so
+  static constexpr std::uint8_t kUnclamped = 0;
+  const std::uint8_t* decided = stuck_frozen_ ? &kUnclamped : nullptr;
   for (const Face& fc : faces) {
     const CoulombMean cm = coulomb_mean(m, fc.u0, fc.u1);
-    // a face left unclamped by the first evaluation of the nonlinear pressure system stays so
-    static constexpr std::uint8_t kUnclamped = 0;
-    const std::uint8_t* decided = stuck_frozen_ ? &kUnclamped : nullptr;
     if (fc.bed)
       bed_stuck_[fc.f] = coulomb_ghost(fc.q, cm.c, cm.dc, fc.u1, bed_a_[fc.f], bed_b_[fc.f], decided);
     else

@@ -65,6 +65,11 @@ void NdamSolver::project_at(const std::vector<double>& q, double dt) {
   q_evaluated_ = q;
 }
 
+void NdamSolver::release_first_evaluation() {
+  stuck_frozen_ = false;
+  if (momentum_) momentum_->hold_preconditioner(false);
+}
+
 bool NdamSolver::pressure_dependent() const {
   return (!rheo_.newtonian() && rheo_.tau_p != 0.0) || cfg_.walls[1].kind == WallKind::Coulomb ||
          cfg_.walls[2].kind == WallKind::Coulomb;
@@ -220,8 +225,7 @@ void NdamSolver::solve_pressure_system(double dt) {
   const std::size_t n = static_cast<std::size_t>(nxl) * static_cast<std::size_t>(nz);
   newton_dt_ = dt;
   div_lagged_.clear();  // the first evaluation (at q0 = p^n) records div u* of the lagged step
-  stuck_frozen_ = false;  // the first evaluation decides the clamps (project_at)
-  if (momentum_) momentum_->hold_preconditioner(false);  // the first evaluation builds its own
+  release_first_evaluation();  // the first evaluation decides the clamps, builds its own
   newton_scale_ = 1.0 / (std::abs(phys_.gz) * cfg_.grid.lz *
                          std::sqrt(static_cast<double>(cfg_.grid.nx) * nz));
   if (p_trial_.data().empty()) p_trial_ = Field(nxl, nz);
@@ -249,8 +253,7 @@ void NdamSolver::solve_pressure_system(double dt) {
                       : newton_->solve(q);
   // the state of the step: P at the returned iterate (re-evaluated unless it was the last one)
   if (q != q_evaluated_) project_at(q, dt);
-  stuck_frozen_ = false;
-  if (momentum_) momentum_->hold_preconditioner(false);
+  release_first_evaluation();
   ++stats_.newton_solves;
   stats_.newton_iterations += newton_stats_.newton_iterations;
   stats_.newton_krylov += newton_stats_.krylov_iterations;

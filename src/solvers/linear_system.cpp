@@ -118,6 +118,7 @@ struct LinearSystem::Impl {
   std::vector<long long> pre_dest;
   bool repeat_values(const std::string& type, std::vector<SC>& pre) const;
   void update_staleness();
+  double rebuild_preconditioner();  // a fresh one for A (counted); returns its setup seconds
   RCP<Matrix> A;
   RCP<OP> prec;
   bool prec_stale = true;
@@ -628,6 +629,18 @@ RCP<OP> build_preconditioner(const RCP<Matrix>& A, const std::string& type,
 }
 }  // namespace
 
+double LinearSystem::Impl::rebuild_preconditioner() {
+  const auto t0 = Clock::now();
+  prec = build_preconditioner(A, prec_type, params, muelu);
+  built_type = prec_type;
+  prec_stale = false;
+  prec_age = 0;
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  ++prec_setups;
+  prec_setup_seconds += seconds;
+  return seconds;
+}
+
 void LinearSystem::invalidate_preconditioner() {
   impl_->prec = Teuchos::null;
   impl_->prec_stale = true;
@@ -651,17 +664,8 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
     return st;
   }
   const LO nk = static_cast<LO>(m.kept.size());
-  auto t0 = Clock::now();
   bool fresh = m.prec_stale;
-  if (m.prec_stale) {
-    m.prec = build_preconditioner(m.A, m.prec_type, m.params, m.muelu);
-    m.built_type = m.prec_type;
-    m.prec_stale = false;
-    m.prec_age = 0;
-    st.setup_seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-    ++m.prec_setups;
-    m.prec_setup_seconds += st.setup_seconds;
-  }
+  if (m.prec_stale) st.setup_seconds = m.rebuild_preconditioner();
   auto t1 = Clock::now();
   auto B = rcp(new MV(m.rmap, 1));
   auto X = rcp(new MV(m.rmap, 1));
@@ -708,10 +712,13 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   Belos::SolverFactory<SC, MV, OP> factory;
   auto solver = factory.create(solver_name, bp);
   RCP<OP> Aop = m.A;
-  auto problem = rcp(new Belos::LinearProblem<SC, MV, OP>(Aop, X, B));
-  if (!m.prec.is_null()) problem->setLeftPrec(m.prec);
-  problem->setProblem();
-  solver->setProblem(problem);
+  auto set_problem = [&] {
+    auto problem = rcp(new Belos::LinearProblem<SC, MV, OP>(Aop, X, B));
+    if (!m.prec.is_null()) problem->setLeftPrec(m.prec);
+    problem->setProblem();
+    solver->setProblem(problem);
+  };
+  set_problem();
   Belos::ReturnType r = Belos::Unconverged;
   try {
     r = solver->solve();
@@ -719,27 +726,17 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
       // A kept (lagged or held) preconditioner that no longer suits the matrix: build one for
       // it and solve again from the same initial guess, so that reuse never costs convergence.
       const int lagged_iters = solver->getNumIters();
-      const auto t2 = Clock::now();
-      m.prec = build_preconditioner(m.A, m.prec_type, m.params, m.muelu);
-      m.built_type = m.prec_type;
-      m.prec_age = 0;
-      const double setup = std::chrono::duration<double>(Clock::now() - t2).count();
-      st.setup_seconds += setup;
-      m.prec_setup_seconds += setup;
-      ++m.prec_setups;
+      st.setup_seconds += m.rebuild_preconditioner();
       ++m.prec_retries;
       {
         auto xv = X->getDataNonConst(0);
         for (LO i = 0; i < nk; ++i) xv[i] = x[static_cast<size_t>(m.kept[static_cast<size_t>(i)])];
       }
-      problem = rcp(new Belos::LinearProblem<SC, MV, OP>(Aop, X, B));
-      problem->setLeftPrec(m.prec);
-      problem->setProblem();
       if (capped) {
         bp->set("Maximum Iterations", max_iterations);
         solver = factory.create(solver_name, bp);
       }
-      solver->setProblem(problem);
+      set_problem();
       r = solver->solve();
       total_iterations_ += lagged_iters;
       fresh = true;

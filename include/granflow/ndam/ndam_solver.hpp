@@ -265,6 +265,9 @@ class NdamSolver final : public core::Stepper {
   // --- pressure_system.cpp: the nonlinear pressure system (NOX) --------------------------------
   void project_at(const std::vector<double>& q, double dt);  // P(q): tau_y, (13) at q
   void solve_pressure_system(double dt);  // 'Nonlinear': the root of R(q) = q - P(q)
+  // ends what project_at keeps from a solve's first evaluation (its clamps, the held momentum
+  // preconditioner): before a solve and after it, so that no step inherits them
+  void release_first_evaluation();
   // 'Pressure iteration' = Anderson fixed point: q <- P(q) with Anderson mixing
   solvers::NonlinearStats anderson_fixed_point(std::vector<double>& q, double dt);
   bool pressure_dependent() const;  // tau_p != 0 or a Coulomb side: the system is nonlinear
