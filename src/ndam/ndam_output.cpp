@@ -542,6 +542,8 @@ void NdamSolver::report(nlohmann::json& s) const {
                            {"krylov_iterations_per_step", avg(stats_.newton_krylov, stats_.newton_solves)},
                            {"residual_evaluations", stats_.newton_evaluations},
                            {"residual_evaluations_per_step", avg(stats_.newton_evaluations, stats_.newton_solves)},
+                           {"anderson_fallbacks", stats_.newton_fallbacks},
+                           {"anderson_fallbacks_converged", stats_.newton_fallbacks_converged},
                            {"worst_final_residual", stats_.newton_worst_residual},
                            {"unconverged_steps_continued", stats_.newton_continued},
                            {"worst_residual_continued", stats_.newton_continued_worst},

@@ -82,6 +82,9 @@ struct NdamConfig {
   /// accelerated fixed point q <- P(q) (default) or NOX's Jacobian-free Newton-Krylov.
   PressureIteration pressure_iteration = PressureIteration::Anderson;
   int anderson_depth = 5;  ///< 'Anderson depth': differences kept by the Anderson mixing
+  /// 'Anderson fallback' = Newton-Krylov: a step whose Anderson iteration stalls is taken on
+  /// by NOX's Newton-Krylov from Anderson's best iterate, to the same target
+  bool anderson_fallback = true;
 
   // --- free-surface chute ---------------------------------------------------------------------
   /// Material tracked by markers: cells with markers are Fluid/Surface, the others Empty (p = 0).

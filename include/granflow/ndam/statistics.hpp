@@ -36,6 +36,7 @@ struct NdamStatistics {
   // the nonlinear pressure system (NOX), 'Pressure coupling' = Nonlinear
   long long newton_solves = 0, newton_iterations = 0, newton_krylov = 0, newton_evaluations = 0;
   int newton_max_iterations = 0;
+  long long newton_fallbacks = 0, newton_fallbacks_converged = 0;  ///< 'Anderson fallback' steps
   long long newton_continued = 0;  ///< unconverged steps kept ('Pressure Newton failure')
   double newton_continued_worst = 0.0, newton_worst_residual = 0.0, newton_seconds = 0.0;
 
@@ -85,6 +86,8 @@ struct NdamStatistics {
     newton_iterations += o.newton_iterations;
     newton_krylov += o.newton_krylov;
     newton_evaluations += o.newton_evaluations;
+    newton_fallbacks += o.newton_fallbacks;
+    newton_fallbacks_converged += o.newton_fallbacks_converged;
     newton_max_iterations = std::max(newton_max_iterations, o.newton_max_iterations);
     newton_continued += o.newton_continued;
     newton_continued_worst = std::max(newton_continued_worst, o.newton_continued_worst);
