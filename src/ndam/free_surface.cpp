@@ -106,21 +106,21 @@ void NdamSolver::advect_markers(double dt) {
 // Flags of the markers m (collective): every rank gathers the marker counts of the whole box and
 // applies the flag rule (MacLayout::classify, the rule classify_cell of grid.hpp).
 void NdamSolver::update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
-                              std::vector<std::uint8_t>& mask,
+                              std::vector<std::uint8_t>& mask, std::vector<double>& depth,
                               std::pair<double, int>* deepest) const {
   const auto counts = m.cell_counts();
   std::vector<double> local(counts.begin(), counts.end());
   const auto all = mac_.gather_columns(local);
   mac_.classify(all, flags, mask);
-  if (deepest) {
-    const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
-    const double per_marker = m.marker_area() / cfg_.grid.dx();
-    *deepest = {0.0, -1};
-    for (int gi = 0; gi < nx; ++gi) {
-      double n = 0.0;
-      for (int k = 0; k < nz; ++k) n += all[static_cast<std::size_t>(gi * nz + k)];
-      if (n * per_marker > deepest->first) *deepest = {n * per_marker, gi};
-    }
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
+  const double per_marker = m.marker_area() / cfg_.grid.dx();
+  depth.assign(static_cast<std::size_t>(nx), 0.0);
+  if (deepest) *deepest = {0.0, -1};
+  for (int gi = 0; gi < nx; ++gi) {
+    double n = 0.0;
+    for (int k = 0; k < nz; ++k) n += all[static_cast<std::size_t>(gi * nz + k)];
+    depth[static_cast<std::size_t>(gi)] = n * per_marker;
+    if (deepest && n * per_marker > deepest->first) *deepest = {n * per_marker, gi};
   }
 }
 
@@ -185,6 +185,15 @@ double NdamSolver::surface_height(int gi, int k) const {
 //     when that one is not empty (NaSt2D's rule for cells with two adjacent empty sides), then
 //     the remaining divergence is removed in equal shares by the empty faces, so that
 //     div u = 0 in every Surface cell (continuity, NaSt2D's rule for one empty side).
+//     With the ghost-fluid surface ('Surface pressure' = Ghost fluid) a Surface cell that is a
+//     pressure unknown keeps its faces (momentum unknowns, projected), and a thin one, whose
+//     centre lies above (or just below) the free surface, is not a continuity cell either:
+//     its empty faces take the opposite face, with both sides empty the faces below it. The
+//     continuity rule sends all that such a cell takes in out through its empty faces,
+//     unbraked, since its pressure is the surface's: where a layer meets the end wall, the
+//     wall column's thin top cell passed on 5 m/s (Setup II at 5 mm, docs/validation.md,
+//     "Ghost-fluid free surface"). Its markers move with the flow, and the mass they carry
+//     fills the cell until it is a pressure unknown.
 //  2. Faces between two non-material cells (the Empty region next to the surface) are
 //     extrapolated: u upward with zero normal gradient (the tangential-stress-free condition
 //     du/dz = 0 of a shallow surface), at the bed ahead of a front from the face behind it;
@@ -211,7 +220,8 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
     const int gi = mac_.slab.i0 + i;
     if (!inside(gi)) continue;
     for (int k = 0; k <= top(i); ++k) {  // a Surface cell is a material cell
-      if (mac_.gflag(gi, k) != CellFlag::Surface) continue;
+      // (a pressure unknown of the ghost-fluid surface: its faces are momentum unknowns)
+      if (mac_.gflag(gi, k) != CellFlag::Surface || mac_.p_unknown(gi, k)) continue;
       const std::uint8_t m = mac_.mask(gi, k);
       double* face[4] = {&u(i - 1, k), &u(i, k), &w(i, k - 1), &w(i, k)};  // L R B T
       const std::uint8_t bit[4] = {empty_side::Left, empty_side::Right, empty_side::Bottom,
@@ -220,6 +230,13 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
       for (int q = 0; q < 4; ++q) {
         const int o = q ^ 1;  // opposite face
         if ((m & bit[q]) && !(m & bit[o])) *face[q] = *face[o];
+      }
+      if (mac_.ghost_surface) {  // a thin cell: no continuity (see above)
+        if ((m & empty_side::Left) && (m & empty_side::Right) && k > 0) {
+          *face[0] = u(i - 1, k - 1);  // both sides empty: the faces below
+          *face[1] = u(i, k - 1);
+        }
+        continue;
       }
       double div = 0.0;
       int ne = 0;

@@ -5,6 +5,7 @@
 
 #include "granflow/params/parameters.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <string>
 
@@ -65,6 +66,42 @@ void MacLayout::classify(const std::vector<double>& counts, std::vector<CellFlag
     }
   flags_out = std::move(out);
   mask_out = std::move(mask);
+}
+
+void MacLayout::classify_surface_pressure() {
+  inside.assign(flags.size(), 0);
+  if (!ghost_surface || depth.empty()) return;
+  const int nx = grid.nx, nz = grid.nz;
+  const double dz = grid.dz();
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = 0; k < nz; ++k) {
+      const auto q = static_cast<std::size_t>(gi * nz + k);
+      if (flags[q] != CellFlag::Surface) continue;
+      // A Surface cell with material above it is inside; one under an Empty cell holds the
+      // surface, at the column's depth, and is inside when its centre lies at least
+      // kThetaMin dz below it.
+      const bool top_empty = (empty_mask[q] & empty_side::Top) != 0;
+      inside[q] =
+          !top_empty || depth[static_cast<std::size_t>(gi)] - (k + 0.5) * dz >= kThetaMin * dz;
+    }
+}
+
+double MacLayout::surface_theta(int gm, int km, int ge, int ke) const {
+  const int nx = grid.nx;
+  auto h = [&](int gi) {
+    const int gw = periodic ? (gi % nx + nx) % nx : gi;
+    return depth[static_cast<std::size_t>(gw)];
+  };
+  const double dz = grid.dz(), zc = (km + 0.5) * dz;
+  double theta = 0.5;
+  if (ge == gm) {
+    if (ke > km) theta = (h(gm) - zc) / dz;
+  } else {
+    // the level set phi = z - depth(x) at the two centres; the surface where it changes sign
+    const double fm = zc - h(gm), fe = zc - h(ge);
+    if (fm < 0.0 && fe > 0.0) theta = fm / (fm - fe);
+  }
+  return std::clamp(theta, kThetaMin, 1.0);
 }
 
 // Ghost columns from the neighbour slabs (periodic wrap included); G columns of nz + 2 values

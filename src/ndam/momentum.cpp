@@ -64,6 +64,13 @@ double NdamSolver::nu_corner(int i, int k) const {
   return 0.25 * (nu_(i, k) + nu_(i + 1, k) + nu_(i, k + 1) + nu_(i + 1, k + 1));
 }
 
+// nu_eff of the normal stress of cell (i, k). An Empty cell carries none: its side of a ghost
+// face of the ghost-fluid surface is the free surface, where the traction vanishes (the other
+// faces' stencils never reach an Empty cell's normal stress).
+double NdamSolver::nu_normal(int i, int k) const {
+  return cfg_.free_surface && mac_.gflag(mac_.slab.i0 + i, k) == CellFlag::Empty ? 0.0 : nu_(i, k);
+}
+
 // V = div(2 nu_eff D) at the u face (i, k): d/dx of the normal stress in the cells left and
 // right of the face, d/dz of the shear stress at the corners above and below.
 template <class Emit>
@@ -71,7 +78,7 @@ void NdamSolver::viscous_u(int i, int k, Emit&& e) const {
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
   for (int c : {i + 1, i}) {
     const double s = (c == i + 1 ? 1.0 : -1.0) / dx;
-    const double f = 2.0 * nu_(c, k) / dx;  // tau_xx = 2 nu (u(c) - u(c-1)) / dx
+    const double f = 2.0 * nu_normal(c, k) / dx;  // tau_xx = 2 nu (u(c) - u(c-1)) / dx
     e(U, c, k, s * f);
     e(U, c - 1, k, -s * f);
   }
@@ -100,7 +107,7 @@ void NdamSolver::viscous_w(int i, int k, Emit&& e) const {
   }
   for (int c : {k + 1, k}) {
     const double s = (c == k + 1 ? 1.0 : -1.0) / dz;
-    const double f = 2.0 * nu_(i, c) / dz;  // tau_zz = 2 nu (w(c) - w(c-1)) / dz
+    const double f = 2.0 * nu_normal(i, c) / dz;  // tau_zz = 2 nu (w(c) - w(c-1)) / dz
     e(W, i, c, s * f);
     e(W, i, c - 1, -s * f);
   }
@@ -148,7 +155,7 @@ double NdamSolver::conv_w(int i, int k) const {
 // the viscous stress V = div(2 nu_eff D) at t^n through the same Refs the implicit operator
 // assembles. With the pressure gradient it is the paper's explicit predictor; without it, the
 // right-hand side of the initial pressure equation (10) (projection.cpp). Other faces: 0.
-void NdamSolver::explicit_force(bool pressure_gradient, Field& fu, Field& fw) const {
+void NdamSolver::explicit_force(bool with_pressure, Field& fu, Field& fw) const {
   const int nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
   double vis = 0.0;
@@ -163,7 +170,7 @@ void NdamSolver::explicit_force(bool pressure_gradient, Field& fu, Field& fw) co
         vis = 0.0;
         viscous_u(i, k, eval);
         double f = -conv_u(i, k) + phys_.gx;
-        if (pressure_gradient) f = f - (p_(i + 1, k) - p_(i, k)) / dx;
+        if (with_pressure) f = f - pressure_difference(p_, U, i, k) / dx;
         fu(i, k) = f + vis;
       }
     for (int k = 0; k < nz - 1; ++k) {
@@ -171,7 +178,7 @@ void NdamSolver::explicit_force(bool pressure_gradient, Field& fu, Field& fw) co
       vis = 0.0;
       viscous_w(i, k, eval);
       double f = -conv_w(i, k) + phys_.gz;
-      if (pressure_gradient) f = f - (p_(i, k + 1) - p_(i, k)) / dz;
+      if (with_pressure) f = f - pressure_difference(p_, W, i, k) / dz;
       fw(i, k) = f + vis;
     }
   }
@@ -199,7 +206,7 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   }
   // Explicit forces of the implicit step: convection, gravity, the pressure gradient of t^n.
   auto force_u = [&](int i, int k) {
-    return -conv_u(i, k) + phys_.gx - (p_(i + 1, k) - p_(i, k)) / dx;
+    return -conv_u(i, k) + phys_.gx - pressure_difference(p_, U, i, k) / dx;
   };
   // 'Surface cell mass' = Material share: a Surface cell whose top side is empty holds
   // material up to the column's marker depth h only, a share f = (h - k dz) / dz of its volume
@@ -222,7 +229,7 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
     return std::max(f, 1e-3);
   };
   auto force_w = [&](int i, int k) {
-    return -conv_w(i, k) + phys_.gz - (p_(i, k + 1) - p_(i, k)) / dz;
+    return -conv_w(i, k) + phys_.gz - pressure_difference(p_, W, i, k) / dz;
   };
 
   // Implicit: (I/dt - V) u* = u^n/dt + forces. The matrix depends on nu_eff and dt only; with
@@ -373,6 +380,7 @@ void NdamSolver::fall_droplets(double dt, Field& us, Field& ws) const {
       // all four sides empty: not against the bed, the lid or an end wall (outside the box is
       // not empty), so all four faces are inside the box
       if (mac_.gflag(gi, k) != CellFlag::Surface || mac_.mask(gi, k) != all) continue;
+      if (mac_.p_unknown(gi, k)) continue;  // ghost fluid: its faces are unknowns with gravity
       us(i - 1, k) += dt * phys_.gx;
       us(i, k) += dt * phys_.gx;
       ws(i, k - 1) += dt * phys_.gz;

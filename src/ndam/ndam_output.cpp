@@ -289,8 +289,9 @@ void NdamSolver::import_state(const NdamState& s) {
     inflow_held_ = inflow_held_new_ = s.inflow_held;
     marker_mass_ = markers_->mass();
     const auto old_flags = mac_.flags;
-    update_flags(*markers_, mac_.flags, mac_.empty_mask);
-    if (mac_.flags != old_flags) flags_changed_ = true;
+    update_flags(*markers_, mac_.flags, mac_.empty_mask, mac_.depth);
+    mac_.classify_surface_pressure();
+    if (mac_.flags != old_flags || mac_.ghost_surface) flags_changed_ = true;
     if (cfg_.inflow) inflow_now_ = cfg_.inflow(t_);
   }
   fluid_cells_ = 0;

@@ -57,6 +57,7 @@ void NdamSolver::setup() {
   const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
   const bool per = cfg_.periodic_x();
   mac_.dirichlet_inflow_column = cfg_.inflow_pressure == InflowPressure::Dirichlet;
+  mac_.ghost_surface = cfg_.free_surface && cfg_.ghost_surface;
   const int nxl = mac_.slab.nx_local;
   u_ = Field(nxl, nz);
   w_ = Field(nxl, nz);
@@ -135,7 +136,8 @@ void NdamSolver::rest_state() {
     if (h0 > 0.0) markers_->seed([&](double x, double z) { return x >= xa && x < xb && z < h0; });
     mass0_ = markers_->mass().area;
     marker_mass_ = markers_->mass();
-    update_flags(*markers_, mac_.flags, mac_.empty_mask);
+    update_flags(*markers_, mac_.flags, mac_.empty_mask, mac_.depth);
+    mac_.classify_surface_pressure();
   }
   fluid_cells_ = 0;
   for (int gi = 0; gi < nx; ++gi)
@@ -389,7 +391,7 @@ void NdamSolver::step(double dt) {
     const auto tm = Clock::now();
     advect_markers(t_new_ - t_);
     // 8. Fluid/Surface/Empty from the new markers
-    update_flags(*markers_new_, flags_new_, mask_new_, &deepest_new_);
+    update_flags(*markers_new_, flags_new_, mask_new_, depth_new_, &deepest_new_);
     stats_.step_markers = detail::seconds_since(tm);
   }
 }
@@ -501,9 +503,12 @@ void NdamSolver::accept() {
     transfer_.in = marker_mass_new_.injected_area - marker_mass_.injected_area;
     transfer_.out = marker_mass_new_.removed_area - marker_mass_.removed_area;
     marker_mass_ = marker_mass_new_;
-    if (flags_new_ != mac_.flags) flags_changed_ = true;
+    // (the ghost-fluid surface's coefficients follow the column depths: every step)
+    if (flags_new_ != mac_.flags || mac_.ghost_surface) flags_changed_ = true;
     std::swap(mac_.flags, flags_new_);
     std::swap(mac_.empty_mask, mask_new_);
+    std::swap(mac_.depth, depth_new_);
+    mac_.classify_surface_pressure();
     for (int i = 0; i < mac_.slab.nx_local; ++i)
       for (int k = 0; k < cfg_.grid.nz; ++k)
         if (mac_.gflag(mac_.slab.i0 + i, k) == CellFlag::Empty) p_(i, k) = 0.0;

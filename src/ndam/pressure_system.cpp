@@ -52,7 +52,7 @@ void NdamSolver::project_at(const std::vector<double>& q, double dt) {
     if (first) div_lagged_.assign(n, 0.0);
     for (int i = 0; i < nxl; ++i)
       for (int k = 0; k < nz; ++k) {
-        if (!mac_.p_unknown(mac_.slab.i0 + i, k)) continue;
+        if (!rotational_cell(i, k)) continue;
         const auto r = static_cast<std::size_t>(i * nz + k);
         const double d = divergence(u_star_, w_star_, i, k);
         if (first)

@@ -65,6 +65,13 @@ void NdamSolver::assemble_pressure() {
       auto couple = [&](int gn, int kn, double c) {
         const CellFlag f = mac_.gflag(gn, kn);
         if (f == CellFlag::Obstacle) return;
+        // Ghost-fluid surface: phi = 0 at the surface, theta of the way to the Empty centre,
+        // so the ghost value is -phi (1 - theta) / theta and the flux c (ghost - phi) is
+        // -c phi / theta: the coefficient c / theta on the diagonal, nothing on the right.
+        if (mac_.ghost_surface && f == CellFlag::Empty) {
+          pressure_->add(row, row, c / mac_.surface_theta(gi, k, gn, kn));
+          return;
+        }
         pressure_->add(row, row, c);
         if (!mac_.p_unknown(gn, kn)) return;  // Dirichlet neighbour: right-hand side
         const long long col = mac_.p_gid(per ? (gn % nx + nx) % nx : gn, kn);
@@ -106,7 +113,8 @@ void NdamSolver::project(double dt) {
   for (int i = 0; i < mac_.slab.nx_local; ++i)
     for (int k = 0; k < cfg_.grid.nz; ++k) {
       if (mac_.p_unknown(mac_.slab.i0 + i, k))
-        p_new_(i, k) += phi(i, k) - rot * nu_rot_(i, k) * divergence(u_star_, w_star_, i, k);
+        p_new_(i, k) += phi(i, k) - (rotational_cell(i, k) ? rot : 0.0) * nu_rot_(i, k) *
+                                        divergence(u_star_, w_star_, i, k);
       else  // Dirichlet cells: phi is the increment to their value (surface normal stress,
             // eq. 26 at an interface, 0 when Empty); obstacles: phi = 0
         p_new_(i, k) += phi(i, k);
@@ -114,6 +122,18 @@ void NdamSolver::project(double dt) {
   if (!cfg_.free_surface) normalise_pressure(p_new_);
   fill_scalar_ghosts(p_new_);
   stats_.step_pressure += detail::seconds_since(t2);
+}
+
+// The rotational update corrects the splitting error of the implicit viscous term where the
+// discrete operator has its interior form: in the Fluid cells. A Surface cell that is a
+// pressure unknown of the ghost-fluid surface has a stress-free side (its ghost face's stencil
+// is one-sided), where 2 nu_eff div u* is not that error: in a resting pile (nu_eff 20-50
+// m^2/s) it swung the pressure of the cells on the pile's face between +50 and -380 m^2/s^2
+// from step to step and threw their ghost faces off at 6 m/s (Setup II at 5 mm,
+// docs/validation.md, "Ghost-fluid free surface").
+bool NdamSolver::rotational_cell(int i, int k) const {
+  const int gi = mac_.slab.i0 + i;
+  return mac_.gflag(gi, k) == CellFlag::Fluid && mac_.p_unknown(gi, k);
 }
 
 double NdamSolver::divergence(const Field& u, const Field& w, int i, int k) const {
@@ -157,6 +177,8 @@ void NdamSolver::solve_pressure(double dt, const Field& us, const Field& ws, Fie
         if (kn < 0 || kn >= nz) return;
         const CellFlag f = mac_.gflag(gn, kn);
         if (f == CellFlag::Obstacle || f == CellFlag::Fluid) return;
+        // ghost fluid: a Surface cell that is an unknown, and the ghost (phi = 0 at the surface)
+        if (mac_.ghost_surface && (f == CellFlag::Empty || mac_.p_unknown(gn, kn))) return;
         r += c * p_dir_(ii, kn);
       };
       if (cfg_.free_surface) {
@@ -194,11 +216,24 @@ void NdamSolver::correct_velocity(double dt, const Field& phi, Field& us, Field&
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
   for (int i = 0; i < nxl; ++i) {
     for (int k = 0; k < nz; ++k) {
-      if (mac_.u_unknown(i, k)) us(i, k) -= dt * (phi(i + 1, k) - phi(i, k)) / dx;
-      if (mac_.w_unknown(i, k)) ws(i, k) -= dt * (phi(i, k + 1) - phi(i, k)) / dz;
+      if (mac_.u_unknown(i, k)) us(i, k) -= dt * pressure_difference(phi, U, i, k) / dx;
+      if (mac_.w_unknown(i, k)) ws(i, k) -= dt * pressure_difference(phi, W, i, k) / dz;
     }
   }
   fill_velocity_ghosts(us, ws);
+}
+
+double NdamSolver::pressure_difference(const Field& p, Comp c, int i, int k) const {
+  const int gi = mac_.slab.i0 + i;
+  const int g2 = c == U ? gi + 1 : gi, k2 = c == U ? k : k + 1;
+  const int i2 = c == U ? i + 1 : i;
+  if (mac_.ghost_face(gi, k, g2, k2)) {
+    // p = 0 at the surface, theta of the spacing from the unknown's centre
+    // (MacLayout::surface_theta): the difference to the ghost value -p (1 - theta) / theta
+    if (mac_.gflag(g2, k2) == CellFlag::Empty) return -p(i, k) / mac_.surface_theta(gi, k, g2, k2);
+    return p(i2, k2) / mac_.surface_theta(g2, k2, gi, k);
+  }
+  return p(i2, k2) - p(i, k);
 }
 
 // The pressure of a closed box is fixed up to a constant. The constant is chosen so that p,

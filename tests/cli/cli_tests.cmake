@@ -53,6 +53,8 @@ granflow_cli_test(coupled_ic_in_2d_part 2 "Initial condition->Type' = Block: put
                   ${_cli}/bad_coupled_ic_in_2d.xml)
 granflow_cli_test(surface_mass_explicit 2 "N-DAM->Surface cell mass' = Material share: .*allowed with Explicit: Full cell"
                   ${_cli}/bad_surface_mass_explicit.xml)
+granflow_cli_test(ghost_surface_nonlinear 2 "N-DAM->Pressure coupling' = Nonlinear: the nonlinear pressure system does not converge yet with 'Surface pressure' = Ghost fluid; allowed with Ghost fluid: Lagged"
+                  ${_cli}/bad_ghost_nonlinear.xml)
 granflow_cli_test(coupled_ndam_ic_in_1d_part 2 "N-DAM->Initial depth' = 0.05: puts a layer on \\[0.3, 0.5\\] m, inside the 1D subdomain"
                   ${_cli}/bad_coupled_ndam_ic_in_1d.xml)
 # the top of the 2D box: a column deeper than Height - dz / 2 stops a run, so a gate opening or an

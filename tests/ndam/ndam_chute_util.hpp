@@ -31,6 +31,7 @@ struct FsCase {
   std::string pressure_iteration = "Anderson fixed point";  // or "Newton-Krylov"
   double x0 = 0.0;  // grid origin along the slope (NdamConfig::x0, as a 2D subdomain has)
   std::string surface_mass = "Full cell";  // 'Surface cell mass' ("Material share")
+  std::string surface_pressure = "Surface cells";  // 'Surface pressure' ("Ghost fluid")
 };
 
 /// The box of `c`; from `state` (NdamSolver's state constructor) when one is given.
@@ -53,6 +54,7 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   n.set("Pressure coupling", c.coupling);
   n.set("Pressure iteration", c.pressure_iteration);
   n.set("Surface cell mass", c.surface_mass);
+  n.set("Surface pressure", c.surface_pressure);
   if (c.newton_max > 0) n.sublist("Pressure Newton").set("Max Newton iterations", c.newton_max);
   if (c.newton_abs_tol > 0.0) {
     n.sublist("Pressure Newton").set("Absolute tolerance", c.newton_abs_tol);
@@ -161,6 +163,22 @@ inline std::vector<double> mean_u_at(ndam::NdamSolver& s, const std::vector<doub
   return u;
 }
 
+/// A Newtonian pool of the given depth in a closed box on a horizontal bed (no-slip walls and
+/// bed, free-slip lid).
+inline FsCase closed_pool(int nx, int nz, double lx, double lz, double depth) {
+  FsCase c;
+  c.nx = nx;
+  c.nz = nz;
+  c.lx = lx;
+  c.lz = lz;
+  c.slope_deg = 0.0;
+  c.depth = depth;
+  c.rheology = "Newtonian";
+  c.walls = {"No-slip", "No-slip", "No-slip", "Free-slip"};
+  c.left = c.right = "Wall";
+  return c;
+}
+
 /// The silo gate (h_in = 4 cm, u_in = 0.37 m/s) feeding an empty 0.3 m Drucker-Prager chute
 /// with a Coulomb bed and end wall, 30 x 10 cells of 1 cm: the pressure changes in every step
 /// as the layer spreads, and the front crosses x = 0.15 m (the slab boundary at np = 2).
@@ -177,5 +195,57 @@ inline FsCase gate_chute(const std::string& coupling = "Lagged") {
   c.coupling = coupling;
   return c;
 }
+
+/// The plug test of NdamCoulomb.PlugFromRestFollowsTheRegularisedLaw (see there) with the given
+/// 'Surface pressure': a 3 cm layer (4 x 24 cells of 5 x 2.5 mm, periodic) released from rest
+/// on three angle sets, at the CFL step and at half of it; u_mean within 1 % of the law at every
+/// output from 0.05 to 1 s, the error not growing as dt halves, and the layer a plug.
+inline void expect_plug_from_rest_follows_law(const std::string& surface_pressure) {
+  struct Angles {
+    double zeta, delta, phi;
+  };
+  std::vector<double> times;
+  for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
+  for (const Angles& an : {Angles{40, 25, 35}, Angles{30, 20, 30}, Angles{40, 30, 35.5}}) {
+    const auto law = plug_law(an.zeta, an.delta, 100.0, times);
+    std::vector<double> err[2];
+    for (int half = 0; half < 2; ++half) {
+      FsCase c;
+      c.nx = 4;
+      c.lx = 0.02;
+      c.nz = 24;
+      c.lz = 0.06;
+      c.depth = 0.03;
+      c.slope_deg = an.zeta;
+      c.delta_deg = an.delta;
+      c.phi_deg = an.phi;
+      c.m_c = 100.0;
+      c.cfl = half ? 0.25 : 0.5;
+      c.surface_pressure = surface_pressure;
+      auto s = make_fs(c);
+      const auto u = mean_u_at(*s, times, 0.01);
+      ASSERT_EQ(u.size(), times.size());
+      for (std::size_t q = 0; q < times.size(); ++q) {
+        err[half].push_back(u[q] / law[q] - 1.0);
+        EXPECT_LT(std::abs(err[half][q]), 0.01)
+            << an.zeta << "/" << an.delta << "/" << an.phi << " CFL " << c.cfl << " t = "
+            << times[q] << ": u_mean " << u[q] << " law " << law[q];
+      }
+      const auto uf = s->gather_u();
+      const int top = static_cast<int>(c.depth / (c.lz / c.nz)) - 2;  // last full Fluid row
+      const double ub = uf[static_cast<std::size_t>(c.nz)], ut = uf[static_cast<std::size_t>(c.nz + top)];
+      EXPECT_LT(std::abs(ut - ub), 0.01 * ub);
+      std::printf("plug (%s) %g/%g/%g CFL %.2f: u_mean/law - 1 = %+.4f %% (0.05 s) %+.4f %% (0.5 s) "
+                  "%+.4f %% (1 s); u_top - u_bottom %.2e m/s at u = %.3f m/s\n",
+                  surface_pressure.c_str(), an.zeta, an.delta, an.phi, c.cfl, 100 * err[half][0],
+                  100 * err[half][9], 100 * err[half][19], ut - ub, ub);
+    }
+    // halving dt: the error at each output does not grow (1e-5: round-off of u / law)
+    for (std::size_t q = 0; q < times.size(); ++q)
+      EXPECT_LE(std::abs(err[1][q]), std::abs(err[0][q]) + 1e-5)
+          << an.zeta << "/" << an.delta << " t = " << times[q];
+  }
+}
+
 
 }  // namespace ndam_chute

@@ -43,4 +43,5 @@ set_tests_properties(ndam.app_rest_slope_np2 PROPERTIES LABELS "ndam;mpi" TIMEOU
 # Free surface, Coulomb sliding, chute boundaries (issue 4).
 target_sources(test_ndam PRIVATE ${CMAKE_CURRENT_LIST_DIR}/test_ndam_chute.cpp
                                ${CMAKE_CURRENT_LIST_DIR}/test_ndam_newton.cpp
-                               ${CMAKE_CURRENT_LIST_DIR}/test_ndam_wall.cpp)
+                               ${CMAKE_CURRENT_LIST_DIR}/test_ndam_wall.cpp
+                               ${CMAKE_CURRENT_LIST_DIR}/test_ndam_ghost.cpp)

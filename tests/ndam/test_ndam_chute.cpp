@@ -28,21 +28,6 @@ void run_to(ndam::NdamSolver& s, double t_end, double dt_max) {
 
 }  // namespace
 
-// A Newtonian pool of the given depth in a closed box on a horizontal bed (no-slip walls and
-// bed, free-slip lid).
-static FsCase closed_pool(int nx, int nz, double lx, double lz, double depth) {
-  FsCase c;
-  c.nx = nx;
-  c.nz = nz;
-  c.lx = lx;
-  c.lz = lz;
-  c.slope_deg = 0.0;
-  c.depth = depth;
-  c.rheology = "Newtonian";
-  c.walls = {"No-slip", "No-slip", "No-slip", "Free-slip"};
-  c.left = c.right = "Wall";
-  return c;
-}
 
 // A free-surface pool at rest in a closed box (no slope) stays at rest and flat: the surface
 // cells take p = 0 and the Fluid cells below the hydrostatic pressure, so the projection finds
@@ -177,49 +162,7 @@ TEST(NdamFreeSurface, MaterialAtTheTopOfTheBoxStopsTheRun) {
 //   rheology inside the layer, see NdamPlugLong for the observed order);
 // - the layer is a plug: u_top - u_bottom of a column within 1 % of the base speed at 1 s.
 TEST(NdamCoulomb, PlugFromRestFollowsTheRegularisedLaw) {
-  struct Angles {
-    double zeta, delta, phi;
-  };
-  std::vector<double> times;
-  for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
-  for (const Angles& an : {Angles{40, 25, 35}, Angles{30, 20, 30}, Angles{40, 30, 35.5}}) {
-    const auto law = plug_law(an.zeta, an.delta, 100.0, times);
-    std::vector<double> err[2];
-    for (int half = 0; half < 2; ++half) {
-      FsCase c;
-      c.nx = 4;
-      c.lx = 0.02;
-      c.nz = 24;
-      c.lz = 0.06;
-      c.depth = 0.03;
-      c.slope_deg = an.zeta;
-      c.delta_deg = an.delta;
-      c.phi_deg = an.phi;
-      c.m_c = 100.0;
-      c.cfl = half ? 0.25 : 0.5;
-      auto s = make_fs(c);
-      const auto u = mean_u_at(*s, times, 0.01);
-      ASSERT_EQ(u.size(), times.size());
-      for (std::size_t q = 0; q < times.size(); ++q) {
-        err[half].push_back(u[q] / law[q] - 1.0);
-        EXPECT_LT(std::abs(err[half][q]), 0.01)
-            << an.zeta << "/" << an.delta << "/" << an.phi << " CFL " << c.cfl << " t = "
-            << times[q] << ": u_mean " << u[q] << " law " << law[q];
-      }
-      const auto uf = s->gather_u();
-      const int top = static_cast<int>(c.depth / (c.lz / c.nz)) - 2;  // last full Fluid row
-      const double ub = uf[static_cast<std::size_t>(c.nz)], ut = uf[static_cast<std::size_t>(c.nz + top)];
-      EXPECT_LT(std::abs(ut - ub), 0.01 * ub);
-      std::printf("plug %g/%g/%g CFL %.2f: u_mean/law - 1 = %+.4f %% (0.05 s) %+.4f %% (0.5 s) "
-                  "%+.4f %% (1 s); u_top - u_bottom %.2e m/s at u = %.3f m/s\n",
-                  an.zeta, an.delta, an.phi, c.cfl, 100 * err[half][0], 100 * err[half][9],
-                  100 * err[half][19], ut - ub, ub);
-    }
-    // halving dt: the error at each output does not grow (1e-5: round-off of u / law)
-    for (std::size_t q = 0; q < times.size(); ++q)
-      EXPECT_LE(std::abs(err[1][q]), std::abs(err[0][q]) + 1e-5)
-          << an.zeta << "/" << an.delta << " t = " << times[q];
-  }
+  expect_plug_from_rest_follows_law("Surface cells");
 }
 
 // A layer thinner than one cell ('Surface cell mass' = Material share, stability suite case 3 in

@@ -115,28 +115,44 @@ TEST(NdamMpi, PeriodicSlopeFlow) {
 // with velocities that differ between the runs by ~1e-12, so a marker could in principle land
 // in another cell; with the tolerance below such a flip would show as an O(0.1) difference.
 #include "ndam_chute_util.hpp"
-TEST(NdamMpi, FreeSurfaceChute) {
-  const auto c = ndam_chute::gate_chute();
+namespace {
+// The chute c on two ranks against one, 160 steps of 2 ms (the front crosses the slab boundary
+// at x = 0.15 m): the fields to expect_equal's tolerances, the depths to 1e-12, the same mass.
+void compare_chute(const char* what, const ndam_chute::FsCase& c) {
   auto par = ndam_chute::make_fs(c, MPI_COMM_WORLD);
   auto ser = ndam_chute::make_fs(c, MPI_COMM_SELF);
-  for (int n = 0; n < 160; ++n) {  // the front crosses the slab boundary at x = 0.15 m
+  for (int n = 0; n < 160; ++n) {
     par->step(0.002);
     par->accept();
     ser->step(0.002);
     ser->accept();
   }
-  expect_equal("free-surface chute (DP, Coulomb)",
-               {max_abs_diff(par->gather_u(), ser->gather_u()),
-                max_abs_diff(par->gather_w(), ser->gather_w()),
-                max_abs_diff(par->gather_p(), ser->gather_p())});
+  expect_equal(what, {max_abs_diff(par->gather_u(), ser->gather_u()),
+                      max_abs_diff(par->gather_w(), ser->gather_w()),
+                      max_abs_diff(par->gather_p(), ser->gather_p())});
   const auto pa = par->profile(), se = ser->profile();
   EXPECT_LT(max_abs_diff(pa.h, se.h), 1e-12);
   EXPECT_GT(*std::max_element(pa.h.begin(), pa.h.end()), 0.0);
   EXPECT_DOUBLE_EQ(par->mass_balance().current, ser->mass_balance().current);
   if (rank0())
-    std::printf("[np=2 vs np=1] chute: front at %.3f m, marker area %.6f m^2\n",
+    std::printf("[np=2 vs np=1] %s: front at %.3f m, marker area %.6f m^2\n", what,
                 [&] { double f = 0; for (std::size_t q = 0; q < pa.x.size(); ++q) if (pa.h[q] > 0) f = pa.x[q]; return f; }(),
                 par->mass_balance().current);
+}
+}  // namespace
+
+TEST(NdamMpi, FreeSurfaceChute) {
+  compare_chute("free-surface chute (DP, Coulomb)", ndam_chute::gate_chute());
+}
+
+// The same chute with the ghost-fluid free surface ('Surface pressure' = Ghost fluid): the
+// inside Surface cells and their ghost distances follow from the gathered marker counts (the
+// same on every rank), and ghost faces cross the slab boundary with the front; the same
+// tolerances.
+TEST(NdamMpi, FreeSurfaceChuteGhostFluid) {
+  auto c = ndam_chute::gate_chute();
+  c.surface_pressure = "Ghost fluid";
+  compare_chute("free-surface chute, ghost fluid", c);
 }
 
 // The same chute with the nonlinear pressure coupling (NOX on R(q) = q - P(q)): the Newton

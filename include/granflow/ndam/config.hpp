@@ -94,6 +94,12 @@ struct NdamConfig {
   /// Surface cell (top side empty) weight their mass and their non-viscous forces by the
   /// material share of the face's cells (momentum.cpp); false: every cell as a full cell.
   bool surface_mass_share = false;
+  /// 'Surface pressure' = Ghost fluid: Surface cells whose centre lies below the free surface
+  /// are pressure unknowns, with p = 0 imposed at the surface's position on the faces to their
+  /// Empty neighbours (a ghost value), and those faces are momentum unknowns
+  /// (free_surface.cpp); false: NaSt2D's Surface cells as Dirichlet cells whose empty faces
+  /// follow continuity.
+  bool ghost_surface = false;
   /// Initial layer z < initial_depth on initial_x0 <= x < initial_x1 (0: no initial material);
   /// the default end 1e30 m lies beyond any channel: the layer reaches the end of the box.
   double initial_depth = 0.0, initial_x0 = 0.0, initial_x1 = 1e30;

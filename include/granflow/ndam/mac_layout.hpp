@@ -4,8 +4,10 @@
 //  - the grid (grid.hpp) and this rank's x-slab of it, with the neighbour ranks;
 //  - the cell flags of the whole box on every rank (the stencils near a slab edge need the
 //    neighbours' flags) and the empty-side masks of the Surface cells;
-//  - the classification of the unknowns: a cell is a pressure unknown when it is Fluid, a face
-//    is a velocity unknown when both its cells hold material (Fluid or Surface) and it is not a
+//  - the classification of the unknowns: a cell is a pressure unknown when it is Fluid (with the
+//    ghost-fluid surface also a Surface cell whose centre lies below the surface), a face is a
+//    velocity unknown when both its cells hold material (Fluid or Surface), or, with the
+//    ghost-fluid surface, one is such a Surface cell and the other Empty, and it is not a
 //    wall-normal face;
 //  - the halo exchange of a Field's ghost columns and the gather/scatter of owned cells.
 //
@@ -15,6 +17,7 @@
 
 #include <mpi.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -42,6 +45,24 @@ class MacLayout {
   bool dirichlet_inflow_column = false;
   std::vector<CellFlag> flags;            ///< all cells of the box, gi * nz + k
   std::vector<std::uint8_t> empty_mask;   ///< empty_side bits of the Surface cells, gi * nz + k
+  /// Marker depth of every column of the box [m] (marker count times marker area over dx),
+  /// from the markers of the flags (free surface; empty before the first markers).
+  std::vector<double> depth;
+  /// 'Surface pressure' = Ghost fluid (NdamConfig::ghost_surface). The Surface cells of
+  /// `inside` (material above them, or their centre at least kThetaMin dz below the column's
+  /// marker depth) are pressure unknowns like the Fluid cells; p = 0 is imposed where the free
+  /// surface crosses the line from such a cell to each Empty neighbour (surface_theta gives
+  /// where: a ghost value), and those faces are momentum unknowns (ghost faces). The other
+  /// Surface cells, thin ones whose centre lies above (or just below) the surface, stay
+  /// Dirichlet cells with the hydrostatic value of their centre; their faces to material cells
+  /// are momentum unknowns as in NaSt2D.
+  bool ghost_surface = false;
+  std::vector<std::uint8_t> inside;  ///< Surface cells that are pressure unknowns, gi * nz + k
+  /// The smallest distance, in cells, from a pressure unknown's centre to the free surface: a
+  /// Surface cell whose centre lies less deep stays a Dirichlet cell (its neighbour below then
+  /// sees p = 0 at the surface, as a ghost would place it), and ghost distances are clamped to
+  /// [kThetaMin, 1] (the ghost's coefficient c / theta at most 10 times a neighbour's).
+  static constexpr double kThetaMin = 0.1;
 
   long long p_gid(int gi, int k) const { return static_cast<long long>(gi) * grid.nz + k; }
   /// Flag of global cell (gi, k); Obstacle outside the box (walls), wrapped when periodic.
@@ -57,28 +78,51 @@ class MacLayout {
     const CellFlag f = gflag(gi, k);
     return f == CellFlag::Fluid || f == CellFlag::Surface;
   }
-  /// Pressure unknown: a Fluid cell (Surface, Empty and obstacle cells are Dirichlet cells).
+  /// Pressure unknown: a Fluid cell, and with the ghost-fluid surface a Surface cell of
+  /// `inside`; the others are Dirichlet cells (Surface: the free-surface value, Empty: 0,
+  /// obstacles), and so are the material cells of the inflow column of
+  /// InflowPressure::Dirichlet.
   bool p_unknown(int gi, int k) const {
     if (dirichlet_inflow_column && gi == 0 && !periodic && fluid(gi, k)) return false;
-    return gflag(gi, k) == CellFlag::Fluid;
+    const CellFlag f = gflag(gi, k);
+    return f == CellFlag::Fluid ||
+           (f == CellFlag::Surface && ghost_surface && !inside.empty() && inside[cell(gi, k)]);
   }
-  /// u(i, k) (local column i) is an unknown: material on both sides; the faces at x = 0 and
-  /// x = L (non-periodic) and all faces touching an obstacle cell are fixed.
+  /// The face between neighbour cells a and b is a ghost face of the ghost-fluid surface: one
+  /// is a pressure unknown, the other Empty.
+  bool ghost_face(int ga, int ka, int gb, int kb) const {
+    if (!ghost_surface) return false;
+    const CellFlag fa = gflag(ga, ka), fb = gflag(gb, kb);
+    return (fb == CellFlag::Empty && fa == CellFlag::Surface && p_unknown(ga, ka)) ||
+           (fa == CellFlag::Empty && fb == CellFlag::Surface && p_unknown(gb, kb));
+  }
+  /// u(i, k) (local column i) is an unknown: material on both sides, or a ghost face; the faces
+  /// at x = 0 and x = L (non-periodic) and all faces touching an obstacle cell are fixed.
   bool u_unknown(int i, int k) const {
     const int gi = slab.i0 + i;
     if (!periodic && (gi < 0 || gi >= grid.nx - 1)) return false;
-    return fluid(gi, k) && fluid(gi + 1, k);
+    return (fluid(gi, k) && fluid(gi + 1, k)) || ghost_face(gi, k, gi + 1, k);
   }
   bool w_unknown(int i, int k) const {
     const int gi = slab.i0 + i;
     if (k < 0 || k >= grid.nz - 1) return false;
     if (!periodic && (gi < 0 || gi >= grid.nx)) return false;
-    return fluid(gi, k) && fluid(gi, k + 1);
+    return (fluid(gi, k) && fluid(gi, k + 1)) || ghost_face(gi, k, gi, k + 1);
   }
+  /// Ghost fluid: where the free surface crosses the line from the centre of pressure unknown
+  /// (gm, km) to the centre of its Empty neighbour (ge, ke), as a fraction theta of that
+  /// distance, in [kThetaMin, 1]. The surface is z = depth(x), the column depths linear
+  /// between the columns' centres: above the cell theta = (depth - z_c) / dz; to the side,
+  /// where depth(x) falls to z_c between the two centres, else 1/2; below, 1/2.
+  double surface_theta(int gm, int km, int ge, int ke) const;
+  /// `inside` from the flags, masks and column depths (ghost-fluid surface only).
+  void classify_surface_pressure();
   /// Mask of the Empty neighbours of global Surface cell (gi, k) (wrapped when periodic).
-  std::uint8_t mask(int gi, int k) const {
+  std::uint8_t mask(int gi, int k) const { return empty_mask[cell(gi, k)]; }
+  /// Index gi * nz + k of a cell inside the box (wrapped when periodic).
+  std::size_t cell(int gi, int k) const {
     const int gw = periodic ? (gi % grid.nx + grid.nx) % grid.nx : gi;
-    return empty_mask[static_cast<std::size_t>(gw * grid.nz + k)];
+    return static_cast<std::size_t>(gw * grid.nz + k);
   }
 
   /// Free-surface flags of the whole box from the marker count of every cell (gi * nz + k, all

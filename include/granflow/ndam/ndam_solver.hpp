@@ -33,8 +33,10 @@
 // With 'Free surface' (NdamConfig::free_surface) the box is a chute: the material is tracked by
 // marker particles (MarkerSet), cells are Fluid/Surface/Empty, momentum is solved on faces
 // between material cells, pressure unknowns are the Fluid cells (Surface: normal-stress
-// Dirichlet value, Empty: p = 0), the silo gate injects at x = x0 and an open end removes
-// markers. Walls of kind Coulomb apply the sliding law (11)-(13) as a Robin ghost value. See
+// Dirichlet value, Empty: p = 0; with 'Surface pressure' = Ghost fluid the Surface cells below
+// the surface are unknowns too, with p = 0 imposed at the surface by a ghost value and their
+// faces to Empty cells momentum unknowns), the silo gate injects at x = x0 and an open end
+// removes markers. Walls of kind Coulomb apply the sliding law (11)-(13) as a Robin ghost value. See
 // docs/numerics.md, "2D granular chute".
 //
 // Pressure coupling (the yield stress tau_y = tau_c + tau_p p and the Coulomb law (13) depend on
@@ -236,21 +238,27 @@ class NdamSolver final : public core::Stepper {
   double surface_height(int gi, int k) const;
   void apply_free_surface(Field& u, Field& w) const;
   void advect_markers(double dt);
-  /// Flags of markers m; `deepest` (if given) gets the deepest column's material depth [m]
-  /// (marker count times marker area over dx) and its global column.
+  /// Flags of markers m and every column's material depth [m] (marker count times marker
+  /// area over dx); `deepest` (if given) gets the deepest column's depth and its global column.
   void update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
-                    std::vector<std::uint8_t>& mask,
+                    std::vector<std::uint8_t>& mask, std::vector<double>& depth,
                     std::pair<double, int>* deepest = nullptr) const;
+  /// The difference of p (ghosts filled) across face (c, i, k), the second cell's value minus
+  /// the first's (divided by the spacing: the gradient); on a ghost face of the ghost-fluid
+  /// surface the Empty cell's value is the ghost -p (1 - theta) / theta of p = 0 at the
+  /// surface, theta of the spacing from the unknown's centre.
+  double pressure_difference(const Field& p, Comp c, int i, int k) const;
   void update_profile_cache();
   // --- viscosity.cpp (eqs. 4-6) ---------------------------------------------------------------
   void update_viscosity(const Field& p_yield);
   // --- momentum.cpp: the predictor (eqs. 8-9) ---------------------------------------------------
   double nu_corner(int i, int k) const;
+  double nu_normal(int i, int k) const;
   template <class Emit> void viscous_u(int i, int k, Emit&& e) const;
   template <class Emit> void viscous_w(int i, int k, Emit&& e) const;
   double conv_u(int i, int k) const;
   double conv_w(int i, int k) const;
-  void explicit_force(bool pressure_gradient, Field& fu, Field& fw) const;
+  void explicit_force(bool with_pressure, Field& fu, Field& fw) const;
   void predict_velocity(double dt, Field& us, Field& ws);
   void fall_droplets(double dt, Field& us, Field& ws) const;  // Surface cells empty all round
   // --- projection.cpp: the pressure projection (eqs. 10, 14) ----------------------------------
@@ -261,6 +269,7 @@ class NdamSolver final : public core::Stepper {
   void normalise_pressure(Field& p) const;
   void initial_pressure();
   double divergence(const Field& u, const Field& w, int i, int k) const;
+  bool rotational_cell(int i, int k) const;  // the rotational pressure update acts here
   double max_abs_divergence(const Field& u, const Field& w) const;  // collective
   // --- pressure_system.cpp: the nonlinear pressure system (NOX) --------------------------------
   void project_at(const std::vector<double>& q, double dt);  // P(q): tau_y, (13) at q
@@ -294,6 +303,7 @@ class NdamSolver final : public core::Stepper {
   std::unique_ptr<MarkerSet> markers_, markers_new_;
   std::vector<CellFlag> flags_new_;
   std::vector<std::uint8_t> mask_new_;
+  std::vector<double> depth_new_;  // column depths of the tentative markers
   std::pair<double, int> deepest_new_{0.0, -1};  // deepest column of the tentative markers
   MarkerMass marker_mass_, marker_mass_new_;  // of the current / tentative markers
   double mass0_ = 0.0;
