@@ -130,7 +130,9 @@ void NdamSolver::project(double dt) {
 // is one-sided), where 2 nu_eff div u* is not that error: in a resting pile (nu_eff 20-50
 // m^2/s) it swung the pressure of the cells on the pile's face between +50 and -380 m^2/s^2
 // from step to step and threw their ghost faces off at 6 m/s (Setup II at 5 mm,
-// docs/validation.md, "Ghost-fluid free surface").
+// docs/validation.md, "Ghost-fluid free surface"). (Leaving it out also in the Fluid cells
+// next to the surface cured the viscous surface spikes at nu = 0.3 and 1 m^2/s, but at 1.25 mm
+// the front of Setup II then threw cells off at 16-21 m/s: not kept, measured there too.)
 bool NdamSolver::rotational_cell(int i, int k) const {
   const int gi = mac_.slab.i0 + i;
   return mac_.gflag(gi, k) == CellFlag::Fluid && mac_.p_unknown(gi, k);

@@ -256,6 +256,7 @@ class NdamSolver final : public core::Stepper {
   double nu_normal(int i, int k) const;
   template <class Emit> void viscous_u(int i, int k, Emit&& e) const;
   template <class Emit> void viscous_w(int i, int k, Emit&& e) const;
+  bool surface_upwind(int i1, int k1, int i2, int k2) const;
   double conv_u(int i, int k) const;
   double conv_w(int i, int k) const;
   void explicit_force(bool with_pressure, Field& fu, Field& fw) const;
