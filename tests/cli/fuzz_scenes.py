@@ -251,11 +251,9 @@ def check_outputs(run_dir):
 
 def granflow(exe, args, timeout):
     try:
-        p = subprocess.run([exe] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                           timeout=timeout)
+        return mutate.run(exe, args, timeout)  # retries a start that MPI_Init aborted
     except subprocess.TimeoutExpired:
         return None, f"no exit within {timeout} s"
-    return p.returncode, (p.stdout + p.stderr).decode("utf-8", "replace")
 
 
 def judge(exe, mutant_file, run_dir, timeout):

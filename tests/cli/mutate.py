@@ -86,10 +86,24 @@ def nest(lines, depth):
     lines.insert(top + 1, chain)
 
 
+# OpenMPI's singleton start (a program run without mpirun) can abort inside MPI_Init on a loaded
+# machine: seen once in CI, "An error occurred in MPI_Init ... Local abort before MPI_INIT
+# completed", exit 1 where the mutant's check gives 2. That is the launcher failing before
+# granflow reads its input, not the input handling these tests judge, so such a start is tried
+# again, at most twice; a third failure is returned as it is (and fails the test).
+MPI_START_FAILURE = re.compile(r"before MPI_INIT completed|error occurred in MPI_Init")
+
+
 def run(exe, args, timeout=600):
-    p = subprocess.run([exe] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                       timeout=timeout)
-    return p.returncode, (p.stdout + p.stderr).decode("utf-8", "replace")
+    """(exit code, stdout + stderr) of granflow; subprocess.TimeoutExpired propagates."""
+    for attempt in range(3):
+        p = subprocess.run([exe] + args, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           timeout=timeout)
+        out = (p.stdout + p.stderr).decode("utf-8", "replace")
+        if p.returncode == 0 or not MPI_START_FAILURE.search(out):
+            break
+        sys.stderr.write(f"[retry] MPI_Init aborted (attempt {attempt + 1}): {' '.join(args)}\n")
+    return p.returncode, out
 
 
 def main():
