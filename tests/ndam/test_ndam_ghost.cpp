@@ -187,3 +187,56 @@ TEST(NdamGhostSurface, CheckpointRestartContinuesBitForBit) {
   EXPECT_EQ(a->mass_balance().current, b->mass_balance().current);
   EXPECT_GT(a->mass_balance().current, 0.0);
 }
+
+// A known defect of the ghost-fluid surface, disabled until it is fixed (docs/validation.md,
+// "Ghost-fluid free surface", "A known defect"): a thin film in the second row of a horizontal
+// periodic box (markers 6.25-8.75 mm above the bed, 5 mm cells, the bed row empty), given
+// u = 3 m/s with its faces squeezing it (w = -0.3 above, +0.1 m/s below), and released.
+// Nothing acts on it along the bed (no slope, a Newtonian nu = 1e-5 m^2/s, no contact with the
+// bed while it falls its first 0.6 mm in 11 ms), so its u keeps 3 m/s: asserted within 1 % at
+// every step of 0.5 ms to 10 ms. Its cells are thin (Dirichlet) cells without a continuity
+// condition, and the conservative convection adds -u div u there: measured +81 % at 10 ms with
+// the ghost-fluid surface, +5.1 % with NaSt2D's surface (printed), 3e-16 with the advective form
+// at thin faces (a variant that was not kept).
+TEST(NdamGhostSurface, DISABLED_LiftedFilmKeepsItsSpeed) {
+  for (const char* surface : {"Ghost fluid", "Surface cells"}) {
+    FsCase c = ndam_chute::closed_pool(20, 10, 0.1, 0.05, 0.0);
+    c.walls = {"Periodic", "Periodic", "No-slip", "Free-slip"};
+    c.left = c.right = "Periodic";
+    c.nu = 1e-5;
+    c.surface_pressure = surface;
+    auto st = make_fs(c)->export_state();
+    const double dx = c.lx / c.nx, u0 = 3.0;
+    for (int q = 0; q < 4 * c.nx; ++q)
+      for (double z : {6.875e-3, 8.125e-3}) {
+        ndam::Marker m;
+        m.x = (q + 0.5) * dx / 4.0;
+        m.z = z;
+        m.id = ndam::kInjectedIdBase + st.inject_next++;
+        st.markers.push_back(m);
+      }
+    for (int gi = 0; gi < c.nx; ++gi) {
+      const auto q = static_cast<std::size_t>(gi * c.nz + 1);
+      st.u[q] = u0;
+      st.w[q] = -0.3;     // its top face coming down,
+      st.w[q - 1] = 0.1;  // its bottom face going up: a film being squeezed
+    }
+    st.surface_applied = false;
+    auto s = make_fs(c, MPI_COMM_WORLD, &st);
+    double worst = 0.0;
+    for (int n = 1; n <= 20; ++n) {
+      s->step(5e-4);
+      ASSERT_TRUE(s->check().ok);
+      s->accept();
+      // the film's u: its row's faces (the columns' u_mean would average from the bed)
+      const auto u = s->gather_u();
+      double mean = 0.0;
+      for (int gi = 0; gi < c.nx; ++gi) mean += u[static_cast<std::size_t>(gi * c.nz + 1)] / c.nx;
+      worst = std::max(worst, std::abs(mean / u0 - 1.0));
+    }
+    std::printf("[measured] %s: lifted film, max |u / u0 - 1| over 10 ms %.2e\n", surface, worst);
+    if (std::string(surface) == "Ghost fluid") {
+      EXPECT_LT(worst, 0.01);
+    }
+  }
+}
