@@ -16,6 +16,13 @@ constexpr int kLeft = 0, kRight = 1, kBottom = 2, kTop = 3;
 // [rows] an opening h_in within this of a row boundary ends at that row: h_in / s_z is computed
 // in floating point, and an opening of exactly R rows must not get an empty row R + 1.
 constexpr double kRowRoundOff = 1e-9;
+// [markers] a row's inflow accumulator within this of a whole marker counts it as entered. At an
+// output time the steps sum to t exactly, so h_in u_in t / a is a whole number of markers
+// whenever u_in t is a multiple of the row spacing (Setup II at 5 mm: t = 0.25 s, 74 rows of
+// 1.25 mm), and the summation's last bits, which differ with the step sequence and the rank
+// count, decided whether that row went in at the step or one step later: one marker row at
+// the gate between np 1 and np 2 of the coupled Setup II (an independent tester, 2026-12-04).
+constexpr double kMarkerRoundOff = 1e-9;
 
 // Largest double below v (keeps a reflected or clamped coordinate strictly inside [0, L)).
 double below(double v) { return std::nextafter(v, -1.0e300); }
@@ -165,7 +172,7 @@ void MarkerSet::inject_rows(double dt, double h_in,
     const double dn = q * dt / a;  // markers entering this row during dt
     const double uf = q / s;       // the strip's mean inflow velocity
     const double A = acc_[static_cast<std::size_t>(r)] + dn;
-    const long long n = static_cast<long long>(std::floor(A));
+    const long long n = static_cast<long long>(std::floor(A + kMarkerRoundOff));
     for (long long j = 1; j <= n; ++j) {
       // The j-th unit crossed x = 0 when the accumulator passed j, a fraction (A - j) / dn of
       // the step ago: it has travelled that fraction of uf dt since. Along z it sits at a
