@@ -30,6 +30,7 @@
 #include "granflow/core/material.hpp"
 #include "granflow/dam/dam_solver.hpp"
 #include "granflow/io/output.hpp"
+#include "granflow/params/parameters.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -244,7 +245,7 @@ int budget_cmd(int argc, char** argv) {
   const std::string run = argv[2];
   double t0 = -1e300, t1 = 1e300, xa = 0.3, xb = 1.2;
   std::string dam_run, out = run;
-  bool cells = false;
+  bool cells = false, stretch_given = false;
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> const char* {
@@ -256,6 +257,7 @@ int budget_cmd(int argc, char** argv) {
     else if (a == "--stretch") {
       xa = number(a, next());
       xb = number(a, next());
+      stretch_given = true;
     } else if (a == "--dam") dam_run = next();
     else if (a == "--cell-weights") cells = true;
     else if (a == "--out") out = next();
@@ -265,6 +267,14 @@ int budget_cmd(int argc, char** argv) {
   if (sum.at("model") != "N-DAM")
     throw std::runtime_error(run + " is a " + sum.at("model").get<std::string>() +
                              " run; the budget needs a full 2D (N-DAM) run");
+  // the stretch lies on the channel: the default [0.3, 1.2] m (Setup I's steady part) is cut
+  // at a shorter channel's end, a stretch the user gives must fit
+  const double length = param(sum, {"Channel", "Length"});
+  if (!stretch_given) xb = std::min(xb, length);
+  if (!(xa >= 0.0 && xb <= length + 1e-12 && xa < xb))
+    throw std::runtime_error("--stretch " + granflow::params::str(xa) + " " +
+                             granflow::params::str(xb) + ": allowed: 0 <= XA < XB <= L = " +
+                             granflow::params::str(length) + " m (the run's channel)");
   BudgetPhysics ph;
   ph.g = param(sum, {"Material", "Gravity"});
   ph.zeta = param(sum, {"Channel", "Slope angle"}) * M_PI / 180.0;
@@ -362,7 +372,9 @@ int budget_cmd(int argc, char** argv) {
               << std::setw(6) << v[0] << ' ' << std::setprecision(3) << std::setw(7) << v[1]
               << ' ' << std::setw(6) << v[2] << " | " << std::setprecision(4);
     for (int q = 3; q <= 10; ++q) std::cout << std::setw(8) << v[static_cast<std::size_t>(q)] << ' ';
-    std::cout << "| " << std::setprecision(1) << std::setw(7) << 100.0 * v[10] / v[5] << "\n";
+    std::cout << "| ";
+    if (v[5] != 0.0) std::cout << std::setprecision(1) << std::setw(7) << 100.0 * v[10] / v[5] << "\n";
+    else std::cout << std::setw(7) << "-" << "\n";  // a dry bin: no gravity to compare with
   }
   auto show = [&](const char* name, const ColumnBudget& cb) {
     const StretchBudget st = stretch(cb, xa, xb);
@@ -375,10 +387,12 @@ int budget_cmd(int argc, char** argv) {
         {"viscous d/dx int 2nu u_x", st.viscous}, {"friction (applied)", st.friction},
         {"friction tan(delta) p_b", st.friction_bound}, {"residual", st.residual},
         {"residual (with tan(delta) p_b)", st.residual_bound}};
-    for (const auto& [n, v] : terms)
+    for (const auto& [n, v] : terms) {
       std::cout << "  " << std::setw(32) << std::left << n << std::right << std::setprecision(6)
-                << std::setw(11) << v << "  " << std::setprecision(4) << std::setw(8)
-                << (st.q != 0.0 ? v / st.q : 0.0) << "\n";
+                << std::setw(11) << v << "  " << std::setprecision(4) << std::setw(8);
+      if (st.q != 0.0) std::cout << v / st.q << "\n";
+      else std::cout << "-" << "\n";  // no discharge on the stretch: no velocity change
+    }
     return st;
   };
   show("2D", b);

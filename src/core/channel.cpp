@@ -5,12 +5,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
 
 namespace granflow::core {
+
+namespace {
+// The gate's ranges, for the constant values and for every row of a series file.
+constexpr double kMaxInflowDepth = 1e3;  // [m]
+constexpr double kMaxInflowSpeed = 1e3;  // [m/s]
+}  // namespace
 
 std::string to_string(BoundaryType t) {
   switch (t) {
@@ -25,6 +32,10 @@ std::string to_string(BoundaryType t) {
 InflowSeries::InflowSeries(double h, double u) : t_{0.0}, h_{h}, u_{u} {}
 
 InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& ppath) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec))
+    throw params::InputError("parameter '" + ppath + "' = " + file +
+                             ": is a directory (allowed: a readable CSV file with columns t,h,u)");
   std::ifstream in(file);
   if (!in)
     throw params::InputError("parameter '" + ppath + "' = " + file +
@@ -75,6 +86,17 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
     // takes material in, so u < 0 (material leaving through the gate) is refused on every row,
     // and a row with h > 0 needs u > 0. Between two accepted rows the interpolated u is then
     // > 0 wherever the interpolated h is > 0.
+    // the ranges of the constant gate's 'Inflow depth' [0, 1e3] m and 'Inflow velocity' (|u|
+    // <= 1e3 m/s): a row beyond them is a typo (2000 for 0.2), not an inflow
+    if (h > kMaxInflowDepth || std::abs(u) > kMaxInflowSpeed) {
+      std::ostringstream os;
+      os << "parameter '" << ppath << "' = " << file << ": line " << lineno << ": "
+         << (h > kMaxInflowDepth ? "depth h = " + params::str(h) : "velocity u = " + params::str(u))
+         << " outside the range of 'Inflow depth' / 'Inflow velocity'; allowed: 0 <= h <= "
+         << params::str(kMaxInflowDepth) << " m and |u| <= " << params::str(kMaxInflowSpeed)
+         << " m/s";
+      throw params::InputError(os.str());
+    }
     if (u < 0.0 || (h > 0.0 && u <= 0.0)) {
       std::ostringstream os;
       os << "parameter '" << ppath << "' = " << file << ": line " << lineno << ": velocity u = "
@@ -131,13 +153,13 @@ Teuchos::RCP<const Teuchos::ParameterList> Channel::getValidParameters() {
              "open end (zero gradient); Wall: rigid closed end; Periodic: both ends periodic",
              kLeftTypes);
     add_double(left, "Inflow depth", d.left.inflow.depth(0.0),
-               "h_in [m]: opening of the silo gate (Inflow only)", 0.0, 1e3);
+               "h_in [m]: opening of the silo gate (Inflow only)", 0.0, kMaxInflowDepth);
     add_double(left, "Inflow velocity", d.left.inflow.velocity(0.0),
                "u_in [m/s]: mean inflow velocity through the gate (Inflow only). The discharge "
                "h_in u_in enters exactly; in the DAM a subcritical gate (u_in below the wave "
                "speed of h_in) prescribes only that discharge and takes its depth from the "
                "channel: the critical depth over a dry or accelerating channel "
-               "(docs/numerics.md)", -1e3, 1e3);
+               "(docs/numerics.md)", -kMaxInflowSpeed, kMaxInflowSpeed);
     add_string(left, "Inflow series file", "",
                "CSV file with columns t,h,u (header allowed) giving a time-dependent inflow, "
                "linear in time and held after its last row; relative to the scene file. "

@@ -51,7 +51,8 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidOutputParameters(
     const RunControl d;
     add_string(*pl, "Directory", d.directory,
                "run directory for profiles.csv, fields.h5/.xdmf, checkpoint.h5, summary.json "
-               "(and wall.csv when the channel ends at a wall); "
+               "(and wall.csv when the channel ends at a wall in a 2D model, or in a dynamic layout "
+               "that may make the part there 2D); "
                "relative to the current working directory; created if missing");
     add_double(*pl, "Interval", d.output_interval,
                "[s] simulated time between outputs (profiles, fields, checkpoint); the time step "
@@ -510,7 +511,7 @@ void Simulation::show_progress(bool final, bool at_output) {
   const double wall = std::chrono::duration<double>(now - wall0_).count();
   const double t = model_->time();
   const double done = (t - t0_) / std::max(rc_.end_time - t0_, 1e-300);
-  const double left = done > 0 ? wall * (1.0 - done) / done : 0.0;
+  const double left = done > 0 ? std::max(0.0, wall * (1.0 - done) / done) : 0.0;  // no -0.0
   char buf[256];
   std::snprintf(buf, sizeof buf, "t = %.4f / %.4f s | dt = %.3e s | step %ld | wall %s | left ~%s",
                 t, rc_.end_time, last_dt_, model_->steps(), fmt_seconds(wall).c_str(),

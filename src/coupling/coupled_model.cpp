@@ -619,7 +619,10 @@ void CoupledModel::load(const io::Checkpoint& c) {
 bool CoupledModel::end_wall() const {
   const auto& last = parts_.back();
   if (last.ndam) return last.ndam->end_wall();
-  return factory_ && factory_->channel().right.type == core::BoundaryType::Wall;
+  // A 1D part at the wall: the DAM does not resolve the wall's pressure field (wall_load), so
+  // there is a wall series only when a domain manager may make that part 2D later; a static
+  // layout would write an empty wall.csv and a summary of zeros (an independent tester).
+  return manager_ && factory_ && factory_->channel().right.type == core::BoundaryType::Wall;
 }
 
 std::optional<core::WallLoad> CoupledModel::wall_load() const {

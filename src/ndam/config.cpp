@@ -324,6 +324,19 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
   if (c.initial_depth > 0.0 && !c.free_surface)
     params::fail(pl, "Initial depth", params::str(c.initial_depth),
                  "an initial layer needs 'Free surface' = true; allowed: 0");
+  // A layer on an empty or outside range would start the run with no material, silently.
+  if (c.initial_depth > 0.0 && !(c.initial_x1 > c.initial_x0))
+    params::fail(pl, "Initial x1", params::str(c.initial_x1),
+                 "must be greater than 'Initial x0' = " + params::str(c.initial_x0) +
+                     " (the layer lies on [Initial x0, Initial x1)); allowed: > " +
+                     params::str(c.initial_x0));
+  if (c.initial_depth > 0.0 && (c.initial_x0 >= channel.length || c.initial_x1 <= 0.0))
+    params::fail(pl, c.initial_x0 >= channel.length ? "Initial x0" : "Initial x1",
+                 params::str(c.initial_x0 >= channel.length ? c.initial_x0 : c.initial_x1),
+                 "the layer [" + params::str(c.initial_x0) + ", " + params::str(c.initial_x1) +
+                     ") m lies outside the channel [0, " + params::str(channel.length) +
+                     "] m; allowed: Initial x0 < " + params::str(channel.length) +
+                     " and Initial x1 > 0");
   // The top of the box (Grid::material_limit): refused here, before the run that it would stop.
   const double top = c.grid.material_limit();
   if (c.initial_depth >= top)

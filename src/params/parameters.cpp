@@ -8,6 +8,7 @@
 #include <climits>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <cctype>
@@ -172,6 +173,8 @@ std::string reference_markdown(const ParameterList& valid, int level) {
       for (double x : Teuchos::getValue<Teuchos::Array<double>>(e))
         items += (items.empty() ? "" : ", ") + str(x);
       def << "{" << items << "}";
+    } else if (e.isType<bool>()) {  // as a scene writes it: 1 and 0 are refused there
+      def << (Teuchos::getValue<bool>(e) ? "true" : "false");
     } else {
       def << e.getAny(false);
     }
@@ -251,7 +254,7 @@ bool parse_double(const std::string& text, double& value, std::string& why) {
   }
   if (!ok || i != n) {
     why = t.empty() ? "empty, not a number" : "not a decimal number (the whole text must be one "
-                                               "number such as 0.25 or 1e-3)";
+                                               "number such as 0.25 or 1e-3; blanks around it are ignored)";
     return false;
   }
   errno = 0;
@@ -277,7 +280,8 @@ bool parse_int(const std::string& text, int& value, std::string& why) {
     why = t.empty() ? "empty, not an integer"
           : parse_double(t, d, ignored)
               ? "not an integer (no fraction or exponent: write the whole number, e.g. 400)"
-              : "not an integer (the whole text must be one whole number such as 400)";
+              : "not an integer (the whole text must be one whole number such as 400; blanks "
+                "around it are ignored)";
     return false;
   }
   errno = 0;
@@ -658,6 +662,9 @@ struct Reader {
 }  // namespace
 
 XmlDocument parse_xml(const std::string& file) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec))
+    throw InputError("scene file '" + file + "' is a directory; allowed: a ParameterList XML file");
   std::ifstream in(file, std::ios::binary);
   if (!in) throw InputError("cannot open scene file '" + file + "' (no such file or not readable)");
   std::ostringstream buf;

@@ -96,6 +96,43 @@ void check_initial_material(const Teuchos::ParameterList& p, const Teuchos::Para
   }
 }
 
+// The 2D subdomains of a layout (static, or the start of an a priori or dynamic one): two 2D
+// neighbours would be one 2D model cut by an interface that neither model's conditions describe,
+// and a 2D subdomain narrower than kMinimumColumns columns of the 2D grid would be built on
+// squeezed columns (the factory keeps at least that many; 1 mm on 10 mm columns gave cells of
+// 0.25 x 10 mm and a run that diverged at its first steps). Both are refused at input.
+constexpr int kMinimumColumns = 4;  // coupling/factory.cpp, kMinimumCells
+void check_two_d_parts(const Teuchos::ParameterList& dec, const core::Channel& channel,
+                       const coupling::Decomposition& layout, double dx2) {
+  // the a priori layout computes its interfaces: only a user's list is checked
+  const bool users = layout.layout == "Static" ||
+                     (layout.layout == "Dynamic" && layout.initial_layout == "Static");
+  if (!users) return;
+  const auto d = layout.normalised(channel.length);
+  if (d.models.size() != d.interfaces.size() + 1) return;
+  for (std::size_t i = 0; i < d.models.size(); ++i) {
+    if (d.models[i] != "2D") continue;
+    const auto [x0, x1] = d.extent(i, channel.length);
+    if (i + 1 < d.models.size() && d.models[i + 1] == "2D")
+      params::fail(dec, "Models", Teuchos::toString(dec.get<Teuchos::Array<std::string>>("Models")),
+                   "two neighbouring subdomains are 2D (at x = " + params::str(x1) +
+                       " m): one 2D model runs both; allowed: 1D subdomains between 2D ones "
+                       "(or one 2D entry for the whole stretch)");
+    if (x1 - x0 < (kMinimumColumns - 1e-9) * dx2)
+      params::fail(dec, "Interfaces", [&] {
+                     std::string v;
+                     for (double x : dec.get<Teuchos::Array<double>>("Interfaces"))
+                       v += (v.empty() ? "{" : ", ") + params::str(x);
+                     return v + "}";
+                   }(),
+                   "give the 2D subdomain [" + params::str(x0) + ", " + params::str(x1) +
+                       "] m, narrower than " + std::to_string(kMinimumColumns) +
+                       " columns of the 2D grid (L / N-DAM->Cells x = " + params::str(dx2) +
+                       " m); allowed: 2D subdomains of at least " +
+                       params::str(kMinimumColumns * dx2) + " m");
+  }
+}
+
 // Output times a run may have (End time / Interval); see check_output.
 constexpr double kMaxOutputTimes = 100000;
 
@@ -296,6 +333,7 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
           }
         }
       }
+      check_two_d_parts(p.sublist("Decomposition"), channel, d, two_d.cfg.grid.dx());
       auto coupled = coupling::build(d, material, channel, cfg, init, &two_d);
       if (dynamic)
         coupled->set_domain_manager(

@@ -38,6 +38,16 @@ granflow_cli_test(unknown_model 2 "Model' = .Navier.: unknown model; allowed: DA
 granflow_cli_test(series_negative_velocity 2
                   "Inflow series file' = .*bad_series_negative_u.csv: line 3: velocity u = -0.2.*allowed: u >= 0"
                   ${_cli}/bad_series_negative_u.xml)
+granflow_cli_test(series_row_out_of_range 2
+                  "Inflow series file' = .*bad_series_range.csv: line 3: depth h = 2000 outside the range.*allowed: 0 <= h <= 1000 m"
+                  ${_cli}/bad_series_range.xml)
+granflow_cli_test(series_is_directory 2 "Inflow series file' = .*: is a directory"
+                  ${_cli}/bad_series_is_directory.xml)
+granflow_cli_test(scene_is_directory 2 "scene file '.*' is a directory; allowed: a ParameterList XML file"
+                  --check ${_cli})
+granflow_cli_test(ndam_layer_outside 2
+                  "N-DAM->Initial x0' = 0.5: the layer \\[0.5, 0.8\\) m lies outside the channel \\[0, 0.2\\] m"
+                  ${_cli}/bad_layer_outside.xml)
 granflow_cli_test(ic_parameter_of_other_type 2 "Initial condition->Left depth.*not used by initial condition Type 'Uniform'"
                   ${_cli}/bad_ic_mismatch.xml)
 granflow_cli_test(dam_position_outside 2 "Position' = 2.*outside the channel.*\\[0, 1\\]"
@@ -155,6 +165,18 @@ if(Python3_Interpreter_FOUND)
              WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
     set_tests_properties(cli.value_${name} PROPERTIES LABELS "cli")
   endfunction()
+  # layouts with two touching 2D subdomains or a 2D subdomain narrower than 4 columns, and an
+  # N-DAM initial layer on an empty range: refused at input (an independent tester found them
+  # ending as a runtime error, a run that diverged, and a run that started empty)
+  granflow_mutant_test(coupled_touching_2d setup2_coupled.xml
+                       "Decomposition->Models' = \\{2D, 2D, 2D\\}: two neighbouring subdomains are 2D"
+                       --set "Decomposition->Models" "{2D, 2D, 2D}")
+  granflow_mutant_test(coupled_narrow_2d setup2_coupled.xml
+                       "Decomposition->Interfaces' = \\{0.001, 0.7\\}: give the 2D subdomain \\[0, 0.001\\] m, narrower than 4 columns"
+                       --set "Decomposition->Interfaces" "{0.001, 0.7}")
+  granflow_mutant_test(ndam_layer_reversed ndam_column_collapse.xml
+                       "N-DAM->Initial x1' = -0.1: must be greater than 'Initial x0' = 0"
+                       --set "N-DAM->Initial x1" "-0.1")
   set(_slope "Channel->Slope angle")
   set(_slope_re "parameter 'granflow->Channel->Slope angle' = ")
   set(_double_re "allowed: a decimal number in \\[0, 89\\]")

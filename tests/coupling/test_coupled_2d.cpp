@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include "chute_scene.hpp"
@@ -630,4 +631,24 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
   // the load on the wall (normal force, wall.csv), the integral over the column, within the
   // issue's 10 % at every output from 0.7 s (measured at most 2.9 %).
   EXPECT_LT(worst_n, 0.10);
+}
+
+// wall.csv and summary.json's wall_load come from the part at the end wall when a model there
+// resolves the wall's pressure (2D): the shipped coupled Setup II has one. With a 1D part there
+// and a static layout nothing can, and the run wrote an empty wall.csv and a summary of zeros
+// beside a 0.1 m deposit (an independent tester); now it writes none (end_wall() is false).
+TEST(Coupled2D, AWallSeriesOnlyWhereAModelResolvesTheWall) {
+  const std::string in = std::string(GRANFLOW_INPUTS) + "/setup2_coupled.xml";
+  std::ifstream f(in);
+  std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const std::string shipped = "value=\"{2D, 1D, 2D}\"";
+  const auto at = text.find(shipped);
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_TRUE(scene::build_model(scene::load(in))->end_wall());
+  text.replace(at, shipped.size(), "value=\"{2D, 1D, 1D}\"");
+  const std::string one_d_at_wall = testing::TempDir() + "coupled_1d_at_wall.xml";
+  std::ofstream(one_d_at_wall) << text;
+  const auto m = scene::build_model(scene::load(one_d_at_wall));
+  EXPECT_FALSE(m->end_wall());
+  EXPECT_FALSE(m->wall_load().has_value());
 }
