@@ -52,13 +52,14 @@ void NdamSolver::project_at(const std::vector<double>& q, double dt) {
     if (first) div_lagged_.assign(n, 0.0);
     for (int i = 0; i < nxl; ++i)
       for (int k = 0; k < nz; ++k) {
-        if (!rotational_cell(i, k)) continue;
+        const double chi = rotational_weight(i, k, dt);
+        if (chi == 0.0) continue;
         const auto r = static_cast<std::size_t>(i * nz + k);
         const double d = divergence(u_star_, w_star_, i, k);
         if (first)
           div_lagged_[r] = d;
         else
-          p_new_(i, k) += 2.0 * nu_rot_(i, k) * (d - div_lagged_[r]);
+          p_new_(i, k) += chi * nu_rot_(i, k) * (d - div_lagged_[r]);
       }
     if (!first) fill_scalar_ghosts(p_new_);
   }

@@ -109,11 +109,10 @@ void NdamSolver::project(double dt) {
   // O(nu dt / dx^2) steps when nu_eff is large (a Stokes-limit Uzawa iteration with step
   // 2 nu_eff). It vanishes at a steady state and for the explicit scheme (the paper's) it is
   // not used.
-  const double rot = cfg_.momentum == Momentum::Implicit ? 2.0 : 0.0;
   for (int i = 0; i < mac_.slab.nx_local; ++i)
     for (int k = 0; k < cfg_.grid.nz; ++k) {
       if (mac_.p_unknown(mac_.slab.i0 + i, k))
-        p_new_(i, k) += phi(i, k) - (rotational_cell(i, k) ? rot : 0.0) * nu_rot_(i, k) *
+        p_new_(i, k) += phi(i, k) - rotational_weight(i, k, dt) * nu_rot_(i, k) *
                                         divergence(u_star_, w_star_, i, k);
       else  // Dirichlet cells: phi is the increment to their value (surface normal stress,
             // eq. 26 at an interface, 0 when Empty); obstacles: phi = 0
@@ -130,12 +129,46 @@ void NdamSolver::project(double dt) {
 // is one-sided), where 2 nu_eff div u* is not that error: in a resting pile (nu_eff 20-50
 // m^2/s) it swung the pressure of the cells on the pile's face between +50 and -380 m^2/s^2
 // from step to step and threw their ghost faces off at 6 m/s (Setup II at 5 mm,
-// docs/validation.md, "Ghost-fluid free surface"). (Leaving it out also in the Fluid cells
-// next to the surface cured the viscous surface spikes at nu = 0.3 and 1 m^2/s, but at 1.25 mm
-// the front of Setup II then threw cells off at 16-21 m/s: not kept, measured there too.)
+// docs/validation.md, "Ghost-fluid free surface"). The Fluid cells next to the surface keep
+// it, with a capped weight where the step is stiff (rotational_weight).
 bool NdamSolver::rotational_cell(int i, int k) const {
   const int gi = mac_.slab.i0 + i;
   return mac_.gflag(gi, k) == CellFlag::Fluid && mac_.p_unknown(gi, k);
+}
+
+// chi in p^{n+1} = p^n + phi - chi nu_eff div u*: 2 in the rotational cells (the stress form's
+// factor, above), 0 elsewhere and for the explicit scheme. With the ghost-fluid surface, in a
+// Fluid cell whose 3 x 3 block holds a Surface or Empty cell, chi rolls off where the step is
+// stiff, chi = 2 / (1 + (s / c)^2) with s = nu_eff dt / h^2 (h = min(dx, dz)), c =
+// kRotationalSurfaceStiffness: the update is a Uzawa step of size chi nu_eff on the pressure,
+// exact in the interior's Stokes limit (above) but not next to the stress-free surface, where
+// the full step, repeated from step to step, amplifies once s >> 1. Where s >> c the
+// correction's step chi s -> 2 c^2 / s vanishes (the standard incremental update); where s < c
+// chi stays near 2 (at s = 0.23, the thin front of Setup II at 1.25 mm, 1.97). Measured on
+// Setup II with nu = 1 m^2/s at 5 mm (s up to 140), the fastest cell to 0.3 s with outputs every
+// 0.02 / 0.025 / 0.05 s: 46 / 7.2 / 15 m/s at the gate's top with chi = 2 there (a fixed chi of
+// 1 or 0.5 there: 6-20 m/s), 0.38-0.49 m/s with this roll-off, c = 1 and 2 alike (the app and
+// test NdamGhostSurface.ViscousGateFlowStaysSlow); a linear cap chi = 2 min(1, c / s) left
+// 0.4-5.2 m/s for c = 0.25-4 (docs/validation.md, "Ghost-fluid free surface"). NaSt2D's surface
+// is unchanged.
+double NdamSolver::rotational_weight(int i, int k, double dt) const {
+  if (cfg_.momentum != Momentum::Implicit || !rotational_cell(i, k)) return 0.0;
+  constexpr double kRot = 2.0, kRotationalSurfaceStiffness = 2.0;
+  if (!mac_.ghost_surface) return kRot;
+  const int gi = mac_.slab.i0 + i;
+  bool near_surface = false;
+  for (int a = -1; a <= 1 && !near_surface; ++a)
+    for (int b = -1; b <= 1; ++b) {
+      const CellFlag f = mac_.gflag(gi + a, k + b);
+      if (f == CellFlag::Surface || f == CellFlag::Empty) {
+        near_surface = true;
+        break;
+      }
+    }
+  if (!near_surface) return kRot;
+  const double h = std::min(cfg_.grid.dx(), cfg_.grid.dz());
+  const double r = nu_rot_(i, k) * dt / (h * h) / kRotationalSurfaceStiffness;
+  return kRot / (1.0 + r * r);
 }
 
 double NdamSolver::divergence(const Field& u, const Field& w, int i, int k) const {

@@ -271,6 +271,7 @@ class NdamSolver final : public core::Stepper {
   void initial_pressure();
   double divergence(const Field& u, const Field& w, int i, int k) const;
   bool rotational_cell(int i, int k) const;  // the rotational pressure update acts here
+  double rotational_weight(int i, int k, double dt) const;  // its chi (projection.cpp)
   double max_abs_divergence(const Field& u, const Field& w) const;  // collective
   // --- pressure_system.cpp: the nonlinear pressure system (NOX) --------------------------------
   void project_at(const std::vector<double>& q, double dt);  // P(q): tau_y, (13) at q
