@@ -268,9 +268,13 @@ int budget_cmd(int argc, char** argv) {
     throw std::runtime_error(run + " is a " + sum.at("model").get<std::string>() +
                              " run; the budget needs a full 2D (N-DAM) run");
   // the stretch lies on the channel: the default [0.3, 1.2] m (Setup I's steady part) is cut
-  // at a shorter channel's end, a stretch the user gives must fit
+  // at a shorter channel's end (the whole channel when that leaves nothing), a stretch the user
+  // gives must fit
   const double length = param(sum, {"Channel", "Length"});
-  if (!stretch_given) xb = std::min(xb, length);
+  if (!stretch_given) {
+    xb = std::min(xb, length);
+    if (xa >= xb) xa = 0.0;  // a channel of 0.3 m or less: the whole of it
+  }
   if (!(xa >= 0.0 && xb <= length + 1e-12 && xa < xb))
     throw std::runtime_error("--stretch " + granflow::params::str(xa) + " " +
                              granflow::params::str(xb) + ": allowed: 0 <= XA < XB <= L = " +
@@ -366,7 +370,7 @@ int budget_cmd(int argc, char** argv) {
                "friction (applied)\n"
             << "    x |      h  u_mean  alpha | d(hu)/dt    flux  gravity pressure  viscous "
                "friction tan.d*p_b | residual  % grav\n";
-  for (double x = std::ceil(xa * 10.0 - 1e-9) / 10.0; x <= xb + 1e-9; x += 0.1) {
+  for (double x = std::ceil(xa * 10.0 - 1e-9) / 10.0 + 0.0; x <= xb + 1e-9; x += 0.1) {  // + 0.0: no -0.00
     const auto v = bin(b, x, 0.05);
     std::cout << std::setprecision(2) << std::setw(5) << x << " | " << std::setprecision(4)
               << std::setw(6) << v[0] << ' ' << std::setprecision(3) << std::setw(7) << v[1]

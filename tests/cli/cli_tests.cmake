@@ -276,6 +276,10 @@ set_tests_properties(cli.benchmark_quick PROPERTIES LABELS "cli" TIMEOUT 300)
 # Error against run time (issue 12 item 5): the quick matrix of scripts/pareto.py is produced and
 # agrees with its runs' summary.json; the full matrices are long runs (label `long`; they resume
 # from the runs already made in their directory).
+add_test(NAME cli.budget_short_channel
+         COMMAND /usr/bin/python3 ${_cli}/budget_short.py ${CMAKE_BINARY_DIR}
+                 ${CMAKE_CURRENT_BINARY_DIR}/budget_short ${_in})
+set_tests_properties(cli.budget_short_channel PROPERTIES LABELS "cli" TIMEOUT 300)
 add_test(NAME cli.pareto_quick
          COMMAND /usr/bin/python3 ${_cli}/pareto_quick.py ${CMAKE_BINARY_DIR} ${CMAKE_CURRENT_BINARY_DIR}/pareto_quick)
 set_tests_properties(cli.pareto_quick PROPERTIES LABELS "cli" TIMEOUT 900)

@@ -1,0 +1,58 @@
+#!/usr/bin/env python3
+"""ctest: `granflow-study budget` on a channel shorter than its default stretch's start (0.3 m).
+An independent tester found the default stretch [0.3, 1.2] m printing rows beyond a 1 m
+channel's end and "-nan" in the % column of dry bins; cut at L, a 0.25 m channel then left
+[0.3, 0.25] and was refused. Asserted: exit 0, the whole channel as the stretch ([0.000, 0.250]
+m, 25 columns), no nan anywhere in the report, and a stretch beyond L refused with exit 2.
+
+  budget_short.py BUILD OUTDIR INPUTS
+"""
+import os
+import re
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+build, out, inputs = sys.argv[1], sys.argv[2], sys.argv[3]
+os.makedirs(out, exist_ok=True)
+tree = ET.parse(os.path.join(inputs, "setup2_ndam.xml"))
+root = tree.getroot()
+
+
+def put(path, typ, value):
+    node = root
+    for name in path[:-1]:
+        node = node.find(f"ParameterList[@name='{name}']")
+    e = node.find(f"Parameter[@name='{path[-1]}']")
+    if e is None:
+        e = ET.SubElement(node, "Parameter", name=path[-1])
+    e.set("type", typ)
+    e.set("value", value)
+
+
+put(["Channel", "Length"], "double", "0.25")
+put(["N-DAM", "Cells x"], "int", "25")
+put(["N-DAM", "Cells z"], "int", "15")
+put(["Time", "End time"], "double", "0.2")
+put(["Output", "Interval"], "double", "0.05")
+put(["Output", "Directory"], "string", os.path.join(out, "run"))
+scene = os.path.join(out, "short.xml")
+tree.write(scene)
+run = subprocess.run([os.path.join(build, "apps", "granflow"), "--overwrite", scene],
+                     capture_output=True, text=True)
+if run.returncode != 0:
+    sys.exit("granflow failed:\n" + run.stderr[-2000:])
+study = os.path.join(build, "apps", "granflow-study")
+b = subprocess.run([study, "budget", os.path.join(out, "run")], capture_output=True, text=True)
+print(b.stdout[-3000:], b.stderr[-1000:])
+if b.returncode != 0:
+    sys.exit(f"budget exit {b.returncode}")
+if "nan" in b.stdout.lower():
+    sys.exit("nan in the report")
+if not re.search(r"stretch \[0\.000, 0\.250\] m \(25 columns\)", b.stdout):
+    sys.exit("the default stretch is not the whole 0.25 m channel")
+bad = subprocess.run([study, "budget", os.path.join(out, "run"), "--stretch", "0.1", "0.5"],
+                     capture_output=True, text=True)
+if bad.returncode == 0 or "0 <= XA < XB <= L = 0.25 m" not in bad.stderr:
+    sys.exit(f"a stretch beyond L was not refused: exit {bad.returncode}, {bad.stderr}")
+print("budget on a 0.25 m channel: ok")
