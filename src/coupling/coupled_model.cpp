@@ -112,14 +112,6 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
   return valid;
 }
 
-namespace {
-std::string list(const std::vector<double>& v) {
-  std::string s;
-  for (double x : v) s += (s.empty() ? "" : ", ") + params::str(x);
-  return "{" + s + "}";
-}
-}  // namespace
-
 Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
                                              const core::Channel& channel) {
   Decomposition d;
@@ -156,12 +148,12 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   if (d.layout == "Static" || (d.layout == "Dynamic" && d.initial_layout == "Static")) {
     if (d.models.size() != d.interfaces.size() + 1)
       params::fail(pl, "Models", Teuchos::toString(models),
-                   "needs exactly one entry more than 'Interfaces' = " + list(d.interfaces) +
+                   "needs exactly one entry more than 'Interfaces' = " + params::str(d.interfaces) +
                        " (one model per subdomain)");
     double prev = 0.0;
     for (double x : d.interfaces) {
       if (!(x >= prev) || !(x <= channel.length))
-        params::fail(pl, "Interfaces", list(d.interfaces),
+        params::fail(pl, "Interfaces", params::str(d.interfaces),
                      "positions must not decrease and must lie in [0, L = " +
                          params::str(channel.length) +
                          "] (equal neighbours give a subdomain of zero length, which is left out)");

@@ -12,7 +12,6 @@ namespace {
 // The smallest subdomain either model is built with [cells]: a DAM needs two ghost cells on each
 // side of a NOC stencil, an N-DAM box two columns per MPI rank and the outflow extrapolation two
 // interior faces.
-constexpr int kMinimumCells = 4;
 }  // namespace
 
 SubdomainFactory::SubdomainFactory(const core::Material& m, const core::Channel& c,

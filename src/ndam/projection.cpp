@@ -156,16 +156,9 @@ double NdamSolver::rotational_weight(int i, int k, double dt) const {
   constexpr double kRot = 2.0, kRotationalSurfaceStiffness = 2.0;
   if (!mac_.ghost_surface) return kRot;
   const int gi = mac_.slab.i0 + i;
-  bool near_surface = false;
-  for (int a = -1; a <= 1 && !near_surface; ++a)
-    for (int b = -1; b <= 1; ++b) {
-      const CellFlag f = mac_.gflag(gi + a, k + b);
-      if (f == CellFlag::Surface || f == CellFlag::Empty) {
-        near_surface = true;
-        break;
-      }
-    }
-  if (!near_surface) return kRot;
+  if (!any_flag(gi - 1, gi + 1, k - 1, k + 1,
+                [](CellFlag f) { return f == CellFlag::Surface || f == CellFlag::Empty; }))
+    return kRot;
   const double h = std::min(cfg_.grid.dx(), cfg_.grid.dz());
   const double r = nu_rot_(i, k) * dt / (h * h) / kRotationalSurfaceStiffness;
   return kRot / (1.0 + r * r);

@@ -86,6 +86,12 @@ std::string str(double v) {
   return os.str();
 }
 
+std::string str(const std::vector<double>& v) {
+  std::string s;
+  for (double x : v) s += (s.empty() ? "" : ", ") + str(x);
+  return "{" + s + "}";
+}
+
 void validate_and_set_defaults(ParameterList& user, const ParameterList& valid,
                                const std::string& source) {
   name_sublists(user);
@@ -169,10 +175,7 @@ std::string reference_markdown(const ParameterList& valid, int level) {
     }
     std::ostringstream def;
     if (e.isType<Teuchos::Array<double>>()) {  // as written in a scene, not 17 digits
-      std::string items;
-      for (double x : Teuchos::getValue<Teuchos::Array<double>>(e))
-        items += (items.empty() ? "" : ", ") + str(x);
-      def << "{" << items << "}";
+      def << str(Teuchos::getValue<Teuchos::Array<double>>(e).toVector());
     } else if (e.isType<bool>()) {  // as a scene writes it: 1 and 0 are refused there
       def << (Teuchos::getValue<bool>(e) ? "true" : "false");
     } else {

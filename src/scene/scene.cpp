@@ -12,6 +12,7 @@
 #include "granflow/ndam/rheology.hpp"
 #include "granflow/coupling/build.hpp"
 #include "granflow/coupling/domain_manager.hpp"
+#include "granflow/coupling/factory.hpp"
 #include "granflow/params/parameters.hpp"
 
 #include <algorithm>
@@ -101,7 +102,7 @@ void check_initial_material(const Teuchos::ParameterList& p, const Teuchos::Para
 // and a 2D subdomain narrower than kMinimumColumns columns of the 2D grid would be built on
 // squeezed columns (the factory keeps at least that many; 1 mm on 10 mm columns gave cells of
 // 0.25 x 10 mm and a run that diverged at its first steps). Both are refused at input.
-constexpr int kMinimumColumns = 4;  // coupling/factory.cpp, kMinimumCells
+constexpr int kMinimumColumns = coupling::SubdomainFactory::kMinimumCells;
 void check_two_d_parts(const Teuchos::ParameterList& dec, const core::Channel& channel,
                        const coupling::Decomposition& layout, double dx2) {
   // the a priori layout computes its interfaces: only a user's list is checked
@@ -119,12 +120,7 @@ void check_two_d_parts(const Teuchos::ParameterList& dec, const core::Channel& c
                        " m): one 2D model runs both; allowed: 1D subdomains between 2D ones "
                        "(or one 2D entry for the whole stretch)");
     if (x1 - x0 < (kMinimumColumns - 1e-9) * dx2)
-      params::fail(dec, "Interfaces", [&] {
-                     std::string v;
-                     for (double x : dec.get<Teuchos::Array<double>>("Interfaces"))
-                       v += (v.empty() ? "{" : ", ") + params::str(x);
-                     return v + "}";
-                   }(),
+      params::fail(dec, "Interfaces", params::str(layout.interfaces),
                    "give the 2D subdomain [" + params::str(x0) + ", " + params::str(x1) +
                        "] m, narrower than " + std::to_string(kMinimumColumns) +
                        " columns of the 2D grid (L / N-DAM->Cells x = " + params::str(dx2) +

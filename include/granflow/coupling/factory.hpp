@@ -38,6 +38,9 @@ struct Neighbours {
 
 class SubdomainFactory {
  public:
+  /// Cells a subdomain gets at the least (a shorter one is built on squeezed cells; a user's
+  /// static layout with a narrower 2D part is refused at input, scene.cpp).
+  static constexpr int kMinimumCells = 4;
   /// `interface_pressure`: "Rheology", "Dirichlet" or "None" (Decomposition). Without `two_d`
   /// a 2D subdomain is an InputError.
   SubdomainFactory(const core::Material& m, const core::Channel& c, const dam::DamConfig& cfg,

@@ -257,6 +257,14 @@ class NdamSolver final : public core::Stepper {
   template <class Emit> void viscous_u(int i, int k, Emit&& e) const;
   template <class Emit> void viscous_w(int i, int k, Emit&& e) const;
   bool surface_upwind(int i1, int k1, int i2, int k2) const;
+  /// Does a cell of global columns [g0, g1] and rows [k0, k1] have a flag with is(flag)?
+  /// (gflag answers outside the box too: Obstacle, or the periodic image.)
+  template <class Is> bool any_flag(int g0, int g1, int k0, int k1, Is&& is) const {
+    for (int gi = g0; gi <= g1; ++gi)
+      for (int k = k0; k <= k1; ++k)
+        if (is(mac_.gflag(gi, k))) return true;
+    return false;
+  }
   double conv_u(int i, int k) const;
   double conv_w(int i, int k) const;
   void explicit_force(bool with_pressure, Field& fu, Field& fw) const;

@@ -92,6 +92,8 @@ void name_sublists(ParameterList& pl);
 
 /// A number as users wrote it (up to 10 significant digits), for messages.
 std::string str(double v);
+/// A list of numbers as a scene writes it, "{0.2, 0.7}".
+std::string str(const std::vector<double>& v);
 
 /// "Sublist->Parameter" path used in messages.
 std::string path(const ParameterList& pl, const std::string& name);
