@@ -281,6 +281,18 @@ void NdamSolver::update_friction(const Field& p_yield) {
     const double e = std::exp(-m * std::abs(un));
     return coulomb_ghost(q, (un >= 0.0 ? 1.0 : -1.0) * (1.0 - e), m * e, un, a, b, decided);
   };
+  // A later evaluation of the nonlinear pressure system whose first evaluation took Newton
+  // starts from the last evaluation's solution v instead (Newton's linearisation c_mean(u^n, v)
+  // + dc (u - v), as relinearise_friction does): v is within the change of one trial pressure
+  // of this evaluation's solution, so one solve meets kFrictionTolerance where the tangent at
+  // u^n took two (docs/validation.md, "nonlinear pressure": the momentum solves per step).
+  const bool warm = friction_warm_start();
+  auto linearise = [&](double q, double un, double v, double& a, double& b,
+                       const std::uint8_t* decided) {
+    if (!warm) return tangent(q, un, a, b, decided);
+    const CoulombMean cm = coulomb_mean(m, un, v);
+    return coulomb_ghost(q, cm.c, cm.dc, v, a, b, decided);
+  };
   const auto nb = static_cast<std::size_t>(nxl + 2 * G);
   bed_a_.assign(nb, 1.0);
   bed_b_.assign(nb, 0.0);
@@ -307,8 +319,9 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double N = std::max(0.0, pb + 2.0 * nub * dudx);
       const auto f = static_cast<std::size_t>(i + G);
       bed_q_[f] = dz * phys_.tan_delta * N / nub;
-      bed_stuck_[f] = tangent(bed_q_[f], u_(i, 0), bed_a_[f], bed_b_[f],
-                              stuck_frozen_ ? &bed_stuck_first_[f] : nullptr);
+      bed_stuck_[f] = linearise(bed_q_[f], u_(i, 0),
+                                warm ? bed_v_last_[static_cast<std::size_t>(i)] : 0.0,
+                                bed_a_[f], bed_b_[f], stuck_frozen_ ? &bed_stuck_first_[f] : nullptr);
     }
   exchange_bed_factors();
   wall_a_.assign(static_cast<std::size_t>(nz), 1.0);
@@ -333,9 +346,16 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double N = std::max(0.0, pw + 2.0 * nuw * dwdz);
       const auto f = static_cast<std::size_t>(k);
       wall_q_[f] = dx * phys_.tan_delta * N / nuw;
-      wall_stuck_[f] = tangent(wall_q_[f], w_(i, k), wall_a_[f], wall_b_[f],
-                               stuck_frozen_ ? &wall_stuck_first_[f] : nullptr);
+      wall_stuck_[f] = linearise(wall_q_[f], w_(i, k), warm ? wall_v_last_[f] : 0.0,
+                                 wall_a_[f], wall_b_[f],
+                                 stuck_frozen_ ? &wall_stuck_first_[f] : nullptr);
     }
+}
+
+bool NdamSolver::friction_warm_start() const {
+  return stuck_frozen_ && friction_newton_first_ &&
+         bed_v_last_.size() == static_cast<std::size_t>(mac_.slab.nx_local) &&
+         wall_v_last_.size() == static_cast<std::size_t>(cfg_.grid.nz);
 }
 
 // Newton's method on the friction of the step (update_friction): after a momentum solve us, ws

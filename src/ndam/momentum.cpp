@@ -277,6 +277,9 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   // about the last solution (relinearise_friction), until the law holds to
   // kFrictionTolerance of the Coulomb bound or after kFrictionMaxSolves solves. Each solve
   // starts from the last one.
+  // (a later evaluation of the nonlinear pressure system: update_friction linearised about the
+  // last evaluation's solution, and Newton goes on iff the first evaluation took it)
+  const bool warm = friction_warm_start(), later = stuck_frozen_;
   for (int solve = 1;; ++solve) {
     const bool rebuild = !rheo_.newtonian() || dt != momentum_dt_ || cfg_.free_surface ||
                          coulomb;
@@ -353,12 +356,19 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
         us, ws,
         [&](double res, double res_accelerating, double over) {
           if (solve >= kFrictionMaxSolves) return false;
+          if (solve == 1 && later) return warm && res > kFrictionTolerance;
           return solve == 1 ? (over > 0.0 || res > kFrictionStart ||
                                res_accelerating > kFrictionStartAccelerating)
                             : res > kFrictionTolerance;
         },
         again);
     if (!again) {
+      if (!later) friction_newton_first_ = solve > 1;
+      // the solution's base and end-wall velocities, where a later evaluation starts from
+      bed_v_last_.resize(static_cast<std::size_t>(nxl));
+      for (int i = 0; i < nxl; ++i) bed_v_last_[static_cast<std::size_t>(i)] = us(i, 0);
+      wall_v_last_.assign(static_cast<std::size_t>(nz), 0.0);
+      for (int k = 0; k < nz - 1; ++k) wall_v_last_[static_cast<std::size_t>(k)] = ws(nxl - 1, k);
       stats_.friction_solves += solve - 1;
       stats_.friction_max_solves = std::max(stats_.friction_max_solves, solve);
       if (solve >= kFrictionMaxSolves && r > kFrictionTolerance) {
