@@ -362,6 +362,42 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
   return plan;
 }
 
+void probe_directory(const std::string& dir) {
+  const std::string param =
+      "parameter 'granflow->Output->Directory' = " + params::shown(dir) + ": ";
+  std::error_code ec;
+  // the part of the path that is missing now (deepest first), removed again after the probe
+  std::vector<fs::path> missing;
+  for (fs::path q = fs::absolute(dir, ec); !q.empty() && !fs::exists(q, ec);
+       q = q.parent_path()) {
+    missing.push_back(q);
+    if (q == q.parent_path()) break;
+  }
+  auto undo = [&] {
+    std::error_code e;
+    for (const auto& q : missing) fs::remove(q, e);  // only what this probe created (empty)
+  };
+  try {
+    fs::create_directories(dir);
+  } catch (const fs::filesystem_error& e) {
+    undo();
+    throw params::InputError(param + "the run cannot create it (" + e.code().message() +
+                             "); allowed: a directory that can be created and written");
+  }
+  const fs::path probe = fs::path(dir) / (".granflow_check_" + std::to_string(::getpid()));
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  const int err = errno;
+  if (fd >= 0) {
+    ::close(fd);
+    fs::remove(probe, ec);
+  }
+  undo();
+  if (fd < 0)
+    throw params::InputError(param + "the run cannot write into it (" +
+                             std::error_code(err, std::generic_category()).message() +
+                             "); allowed: a directory that can be created and written");
+}
+
 DirectoryLock::DirectoryLock(const std::string& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return;

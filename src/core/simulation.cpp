@@ -276,6 +276,7 @@ void preflight(const Teuchos::ParameterList& validated, const RunControl& rc) {
       const DirectoryLock probe(rc.directory);  // refused while another run holds it
       plan_directory(rc.directory, identity, canonical, rc.overwrite, !rc.restart_from.empty(),
                      rc.restart_from, validated);
+      probe_directory(rc.directory);
     } catch (const params::InputError& e) {
       err = e.what();
     } catch (const std::exception& e) {  // e.g. no permission to read the directory

@@ -43,6 +43,9 @@ granflow_cli_test(series_row_out_of_range 2
                   ${_cli}/bad_series_range.xml)
 granflow_cli_test(series_is_directory 2 "Inflow series file' = .*: is a directory"
                   ${_cli}/bad_series_is_directory.xml)
+granflow_cli_test(output_directory_uncreatable 2
+                  "Output->Directory' = ./proc/granflow_cannot_create/out.: the run cannot create it .*allowed: a directory that can be created and written"
+                  --check ${_cli}/bad_output_uncreatable.xml)
 granflow_cli_test(scene_is_directory 2 "scene file '.*' is a directory; allowed: a ParameterList XML file"
                   --check ${_cli})
 granflow_cli_test(ndam_layer_outside 2

@@ -84,6 +84,13 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
                              bool restart, const std::string& keep,
                              const Teuchos::ParameterList& validated);
 
+/// What `granflow --check` asks of the run directory beyond plan_directory: that the run could
+/// create it and write into it. The missing part of the path is created and a probe file
+/// written, then both are removed again (an existing directory is left as it was). Throws an
+/// InputError naming 'Output->Directory' otherwise (a path under /proc, a read-only file
+/// system, a file where a directory is needed, no permission).
+void probe_directory(const std::string& dir);
+
 /// The validated list as JSON (summary.json "parameters").
 nlohmann::json parameters_json(const Teuchos::ParameterList& validated);
 
