@@ -319,9 +319,15 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double N = std::max(0.0, pb + 2.0 * nub * dudx);
       const auto f = static_cast<std::size_t>(i + G);
       bed_q_[f] = dz * phys_.tan_delta * N / nub;
-      bed_stuck_[f] = linearise(bed_q_[f], u_(i, 0),
-                                warm ? bed_v_last_[static_cast<std::size_t>(i)] : 0.0,
-                                bed_a_[f], bed_b_[f], stuck_frozen_ ? &bed_stuck_first_[f] : nullptr);
+      // (a face beyond the box, i < 0 or i >= nxl on the end ranks, takes no part in Newton:
+      // relinearise_friction checks the owned faces; it keeps the tangent at u^n)
+      const bool owned = i >= 0 && i < nxl;
+      bed_stuck_[f] = owned ? linearise(bed_q_[f], u_(i, 0),
+                                        warm ? bed_v_last_[static_cast<std::size_t>(i)] : 0.0,
+                                        bed_a_[f], bed_b_[f],
+                                        stuck_frozen_ ? &bed_stuck_first_[f] : nullptr)
+                            : tangent(bed_q_[f], u_(i, 0), bed_a_[f], bed_b_[f],
+                                      stuck_frozen_ ? &bed_stuck_first_[f] : nullptr);
     }
   exchange_bed_factors();
   wall_a_.assign(static_cast<std::size_t>(nz), 1.0);

@@ -229,7 +229,9 @@ void NdamSolver::solve_pressure_system(double dt) {
   release_first_evaluation();  // the first evaluation decides the clamps, builds its own
   newton_scale_ = 1.0 / (std::abs(phys_.gz) * cfg_.grid.lz *
                          std::sqrt(static_cast<double>(cfg_.grid.nx) * nz));
-  if (p_trial_.data().empty()) p_trial_ = Field(nxl, nz);
+  // sized to the slab of this step: a load-balance rebuild (relayout) changes nx_local, and a
+  // trial field of the old width was written past its end on two ranks (heap corruption)
+  if (p_trial_.nx_local() != nxl || p_trial_.nz() != nz) p_trial_ = Field(nxl, nz);
   // R(q) = (q - P(q)) / (p_ref sqrt(N)), the residual of NOX's Newton-Krylov
   auto residual = [this, nxl, nz](const std::vector<double>& q, std::vector<double>& F) {
     project_at(q, newton_dt_);
