@@ -189,7 +189,15 @@ std::string reference_markdown(const ParameterList& valid, int level) {
     const auto& e = valid.entry(it);
     if (!e.isList()) continue;
     const auto& sub = valid.sublist(valid.name(it));
-    os << "\n" << std::string(static_cast<std::size_t>(level), '#') << " `" << sub.name() << "`\n\n";
+    // its path as a scene writes it: a list set under another key keeps its own name (N-DAM->
+    // Pressure Newton holds the NonlinearSystem list "Nonlinear solver"), so the key is used
+    const std::string key = valid.name(it), own = sub.name();
+    const bool named_by_key = own == key || (own.size() > key.size() + 2 &&
+                                             own.compare(own.size() - key.size() - 2,
+                                                         std::string::npos, "->" + key) == 0);
+    const std::string heading =
+        named_by_key ? own : (valid.name().empty() ? key : valid.name() + "->" + key);
+    os << "\n" << std::string(static_cast<std::size_t>(level), '#') << " `" << heading << "`\n\n";
     if (!e.docString().empty()) os << e.docString() << "\n\n";
     os << reference_markdown(sub, level + 1);
   }
