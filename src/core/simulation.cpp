@@ -465,6 +465,13 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
                                                std::abs(m.inflow), 1e-300})}};
   nlohmann::json stats = nlohmann::json::object();
   model_->report(stats);
+  // counters of solves, iterations and seconds are this process's; a model's "steps" (and the
+  // top-level "steps") count the whole run, from the checkpoint on after a restart
+  stats["note"] = restarted_
+                      ? "counts of solves, iterations, evaluations and seconds since this "
+                        "process restarted at t = " + std::to_string(restart_time_) +
+                            " s; 'steps' of the whole run"
+                      : "counts of solves, iterations, evaluations and seconds of this run";
   s["solver_statistics"] = stats;
   // Layout of the models along the channel at every output where it changed (a static one:
   // one entry), and the domain manager's moves between outputs (summary of its log).
