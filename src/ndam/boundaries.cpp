@@ -282,10 +282,13 @@ void NdamSolver::update_friction(const Field& p_yield) {
     return coulomb_ghost(q, (un >= 0.0 ? 1.0 : -1.0) * (1.0 - e), m * e, un, a, b, decided);
   };
   // A later evaluation of the nonlinear pressure system whose first evaluation took Newton
-  // starts from the last evaluation's solution v instead (Newton's linearisation c_mean(u^n, v)
-  // + dc (u - v), as relinearise_friction does): v is within the change of one trial pressure
-  // of this evaluation's solution, so one solve meets kFrictionTolerance where the tangent at
-  // u^n took two (docs/validation.md, "nonlinear pressure": the momentum solves per step).
+  // starts from the first evaluation's solution v instead (Newton's linearisation
+  // c_mean(u^n, v) + dc (u - v), as relinearise_friction does): v is within the change of the
+  // trial pressure from p^n of this evaluation's solution, so one solve meets
+  // kFrictionTolerance where the tangent at u^n took two (docs/validation.md, "nonlinear
+  // pressure": the momentum solves per step). Not the last evaluation's: a start that
+  // depends on the order of the evaluations makes P(q) depend on it too, below the friction
+  // tolerance, and Newton-Krylov's finite differences of P then failed their line search.
   const bool warm = friction_warm_start();
   auto linearise = [&](double q, double un, double v, double& a, double& b,
                        const std::uint8_t* decided) {
@@ -323,7 +326,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
       // relinearise_friction checks the owned faces; it keeps the tangent at u^n)
       const bool owned = i >= 0 && i < nxl;
       bed_stuck_[f] = owned ? linearise(bed_q_[f], u_(i, 0),
-                                        warm ? bed_v_last_[static_cast<std::size_t>(i)] : 0.0,
+                                        warm ? bed_v_first_[static_cast<std::size_t>(i)] : 0.0,
                                         bed_a_[f], bed_b_[f],
                                         stuck_frozen_ ? &bed_stuck_first_[f] : nullptr)
                             : tangent(bed_q_[f], u_(i, 0), bed_a_[f], bed_b_[f],
@@ -352,7 +355,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double N = std::max(0.0, pw + 2.0 * nuw * dwdz);
       const auto f = static_cast<std::size_t>(k);
       wall_q_[f] = dx * phys_.tan_delta * N / nuw;
-      wall_stuck_[f] = linearise(wall_q_[f], w_(i, k), warm ? wall_v_last_[f] : 0.0,
+      wall_stuck_[f] = linearise(wall_q_[f], w_(i, k), warm ? wall_v_first_[f] : 0.0,
                                  wall_a_[f], wall_b_[f],
                                  stuck_frozen_ ? &wall_stuck_first_[f] : nullptr);
     }
@@ -360,8 +363,8 @@ void NdamSolver::update_friction(const Field& p_yield) {
 
 bool NdamSolver::friction_warm_start() const {
   return stuck_frozen_ && friction_newton_first_ &&
-         bed_v_last_.size() == static_cast<std::size_t>(mac_.slab.nx_local) &&
-         wall_v_last_.size() == static_cast<std::size_t>(cfg_.grid.nz);
+         bed_v_first_.size() == static_cast<std::size_t>(mac_.slab.nx_local) &&
+         wall_v_first_.size() == static_cast<std::size_t>(cfg_.grid.nz);
 }
 
 // Newton's method on the friction of the step (update_friction): after a momentum solve us, ws

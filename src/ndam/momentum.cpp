@@ -363,12 +363,16 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
         },
         again);
     if (!again) {
-      if (!later) friction_newton_first_ = solve > 1;
-      // the solution's base and end-wall velocities, where a later evaluation starts from
-      bed_v_last_.resize(static_cast<std::size_t>(nxl));
-      for (int i = 0; i < nxl; ++i) bed_v_last_[static_cast<std::size_t>(i)] = us(i, 0);
-      wall_v_last_.assign(static_cast<std::size_t>(nz), 0.0);
-      for (int k = 0; k < nz - 1; ++k) wall_v_last_[static_cast<std::size_t>(k)] = ws(nxl - 1, k);
+      if (!later) {
+        friction_newton_first_ = solve > 1;
+        // the first evaluation's base and end-wall velocities, where the later ones start
+        // from (the same start for every trial pressure: P(q) stays a function of q alone)
+        bed_v_first_.resize(static_cast<std::size_t>(nxl));
+        for (int i = 0; i < nxl; ++i) bed_v_first_[static_cast<std::size_t>(i)] = us(i, 0);
+        wall_v_first_.assign(static_cast<std::size_t>(nz), 0.0);
+        for (int k = 0; k < nz - 1; ++k)
+          wall_v_first_[static_cast<std::size_t>(k)] = ws(nxl - 1, k);
+      }
       stats_.friction_solves += solve - 1;
       stats_.friction_max_solves = std::max(stats_.friction_max_solves, solve);
       if (solve >= kFrictionMaxSolves && r > kFrictionTolerance) {

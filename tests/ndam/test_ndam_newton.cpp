@@ -313,11 +313,11 @@ TEST(NdamPressureNewton, SetupIIDepositConvergesAt5mm) {
                                   {0.65}, 0.1);
   if (HasFatalFailure()) return;
   EXPECT_LE(nl.stats["newton"]["newton_iterations_max"].get<int>(), 6);
-  // The later evaluations of a step start the friction Newton from the last evaluation's
+  // The later evaluations of a step start the friction Newton from the first evaluation's
   // solution (update_friction): one momentum solve each where the tangent at u^n took two.
-  // Measured: 1.29 momentum solves per evaluation (2883 for 2242), 2.01 (4523 for 2247) when
-  // every evaluation started from the tangent; the first evaluation of each step still takes
-  // its 2-3, so 1.5 leaves room for them and fails the cold start.
+  // Measured: 1.32 momentum solves per evaluation, 2.01 (4523 for 2247) when every evaluation
+  // started from the tangent; the first evaluation of each step still takes its 2-3, so 1.5
+  // leaves room for them and fails the cold start.
   const double per_eval = nl.stats["momentum_solves"].get<double>() /
                           nl.stats["newton"]["residual_evaluations"].get<double>();
   std::printf("momentum solves per evaluation %.3f\n", per_eval);

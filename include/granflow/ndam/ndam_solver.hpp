@@ -335,13 +335,13 @@ class NdamSolver final : public core::Stepper {
   // once its first evaluation is done; *_stuck_first_ are that evaluation's clamps.
   bool stuck_frozen_ = false;
   std::vector<std::uint8_t> bed_stuck_first_, wall_stuck_first_;
-  // The same system's later evaluations go on with the step's friction Newton where the last
+  // The same system's later evaluations start the step's friction Newton where the first
   // evaluation left it (update_friction): the factors linearised about its solution at each
-  // Coulomb face (*_v_last_: u(i, 0) of the owned columns, w(nx - 1, k) at the end wall), and
+  // Coulomb face (*_v_first_: u(i, 0) of the owned columns, w(nx - 1, k) at the end wall), and
   // Newton taken iff the first evaluation took it (friction_newton_first_), so that P(q) does
   // not switch between the tangent and Newton from one trial pressure to the next.
   bool friction_newton_first_ = false;
-  std::vector<double> bed_v_last_, wall_v_last_;
+  std::vector<double> bed_v_first_, wall_v_first_;
   bool friction_warm_start() const;  // inside a solve, after a first evaluation that took Newton
   // dt over which the friction factor of the last step grew by 1 (stable_dt; <= 0: no limit)
   double friction_dt_ = -1.0;
