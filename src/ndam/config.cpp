@@ -439,6 +439,15 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
     params::fail(pl.sublist("Pressure Newton"), "Method", c.pressure_newton.get<std::string>("Method"),
                  "the pressure system's residual contains the momentum and pressure solves, so "
                  "its Jacobian is not assembled; allowed: Jacobian-free Newton-Krylov");
+  // Both tolerances 0: no solve can stop before 'Max Newton iterations' (an exact fixed point
+  // in floating point), so the first step stops the run (found by an independent run: exit 3
+  // at t = 0.066 s); refused here instead
+  if (c.pressure_coupling == PressureCoupling::Nonlinear &&
+      c.pressure_newton.get<double>("Absolute tolerance") == 0.0 &&
+      c.pressure_newton.get<double>("Relative tolerance") == 0.0)
+    params::fail(pl.sublist("Pressure Newton"), "Absolute tolerance", "0",
+                 "with 'Relative tolerance' = 0 as well no nonlinear pressure solve can reach "
+                 "its tolerance; allowed: at least one of the two above 0");
   if (c.pressure_newton.get<std::string>("Preconditioner") != "None")
     params::fail(pl.sublist("Pressure Newton"), "Preconditioner",
                  c.pressure_newton.get<std::string>("Preconditioner"),

@@ -87,6 +87,9 @@ granflow_cli_test(diverged_newton 3 "nonlinear pressure system did not converge.
                   ${_cli}/diverge_newton.xml)
 granflow_cli_test(newton_method_not_jfnk 2 "Pressure Newton->Method' = Newton-Krylov \\(analytic Jacobian\\).*allowed: Jacobian-free"
                   ${_cli}/bad_newton_method.xml)
+granflow_cli_test(newton_zero_tolerances 2
+                  "Pressure Newton->Absolute tolerance' = 0: with 'Relative tolerance' = 0 as well .*allowed: at least one of the two above 0"
+                  ${_cli}/bad_newton_zero_tolerances.xml)
 add_test(NAME cli.restart_reproduces_straight_run
          COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> -DSRC=${_cli} -P ${_cli}/restart.cmake
          WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
