@@ -278,7 +278,7 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   // kFrictionTolerance of the Coulomb bound or after kFrictionMaxSolves solves. Each solve
   // starts from the last one.
   // (a later evaluation of the nonlinear pressure system: update_friction linearised about the
-  // last evaluation's solution, and Newton goes on iff the first evaluation took it)
+  // first evaluation's solution, and Newton goes on iff the first evaluation took it)
   const bool warm = friction_warm_start(), later = stuck_frozen_;
   for (int solve = 1;; ++solve) {
     const bool rebuild = !rheo_.newtonian() || dt != momentum_dt_ || cfg_.free_surface ||
