@@ -28,6 +28,9 @@ for d in dirs:
     zeta = math.radians(par["Channel"]["Slope angle"])
     rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(open(d + "/wall.csv"))]
     tc = w["first_contact_time"]
+    if tc is None:  # no sample in contact: no peaks (summary.json gives null)
+        print(f"{d}: {w['samples']} samples, the material never reached the wall")
+        continue
     print(f"{d}: {w['samples']} samples, first contact at {tc:.4f} s "
           f"(impact window {w['impact_window']} s)")
     for k in ("force", "normal_force", "p_foot"):

@@ -369,8 +369,11 @@ void Simulation::track_speed() {
 // restarts: the writer re-reads the rows it keeps).
 nlohmann::json Simulation::wall_summary() const {
   const auto& sr = io_->wall.series();
-  auto peak = [](const io::WallWriter::Extreme& e) {
-    nlohmann::json q{{"peak", e.max}, {"peak_time", e.t_max}, {"final", e.last}};
+  // null where the series has no sample in contact (the wall never reached)
+  auto opt = [](double v, double t) { return t >= 0.0 ? nlohmann::json(v) : nlohmann::json(); };
+  auto peak = [&opt](const io::WallWriter::Extreme& e) {
+    nlohmann::json q{{"peak", opt(e.max, e.t_max)}, {"peak_time", opt(e.t_max, e.t_max)},
+                     {"final", e.last}};
     q["impact_peak"] = e.t_impact >= 0.0 ? nlohmann::json(e.impact) : nlohmann::json();
     q["impact_peak_time"] = e.t_impact >= 0.0 ? nlohmann::json(e.t_impact) : nlohmann::json();
     return q;
@@ -385,7 +388,9 @@ nlohmann::json Simulation::wall_summary() const {
               "the wall), p_foot = rho p of the bottom cell of the wall column "
               "(docs/numerics.md, 'Wall load'); impact_peak: the largest value within "
               "impact_window (Output->Impact window) after the first contact (the wall column "
-              "holds one cell height of material), peak: of the whole run";
+              "holds one cell height of material); peak, max, min: over every sample in "
+              "contact (a film thinner than a cell before it is left out; wall.csv has every "
+              "row)";
   j["samples"] = sr.samples;
   j["first_contact_time"] = sr.t_contact >= 0.0 ? nlohmann::json(sr.t_contact) : nlohmann::json();
   j["impact_window"] = rc_.impact_window;
@@ -393,8 +398,10 @@ nlohmann::json Simulation::wall_summary() const {
   j["normal_force"] = peak(sr.normal);
   j["p_foot"] = peak(sr.p_foot);
   j["depth"] = peak(sr.depth);
-  j["shear"] = {{"max", sr.shear.max}, {"max_time", sr.shear.t_max}, {"min", sr.shear.min},
-                {"min_time", sr.shear.t_min}, {"final", sr.shear.last}};
+  j["shear"] = {{"max", opt(sr.shear.max, sr.shear.t_max)},
+                {"max_time", opt(sr.shear.t_max, sr.shear.t_max)},
+                {"min", opt(sr.shear.min, sr.shear.t_min)},
+                {"min_time", opt(sr.shear.t_min, sr.shear.t_min)}, {"final", sr.shear.last}};
   return j;
 }
 

@@ -79,9 +79,9 @@ void ProfileWriter::write(double t, const core::Profile& p) {
 // ---------------------------------------------------------------------------------------------
 // wall.csv
 // ---------------------------------------------------------------------------------------------
-void WallWriter::Extreme::add(double t, double v, bool first, bool impact_window) {
-  if (first || v > max) max = v, t_max = t;
-  if (first || v < min) min = v, t_min = t;
+void WallWriter::Extreme::add(double t, double v, bool contact, bool impact_window) {
+  if (contact && (t_max < 0.0 || v > max)) max = v, t_max = t;
+  if (contact && (t_min < 0.0 || v < min)) min = v, t_min = t;
   if (impact_window && (t_impact < 0.0 || v > impact)) impact = v, t_impact = t;
   last = v;
 }
@@ -92,11 +92,11 @@ void WallWriter::add(double t, const core::WallLoad& w) {
   series_.t_last = t;
   if (series_.t_contact < 0.0 && w.contact) series_.t_contact = t;
   const bool in = series_.t_contact >= 0.0 && t <= series_.t_contact + impact_window_;
-  series_.force.add(t, w.force, first, in);
-  series_.normal.add(t, w.normal, first, in);
-  series_.shear.add(t, w.shear, first, in);
-  series_.p_foot.add(t, w.p_foot, first, in);
-  series_.depth.add(t, w.depth, first, in);
+  series_.force.add(t, w.force, w.contact, in);
+  series_.normal.add(t, w.normal, w.contact, in);
+  series_.shear.add(t, w.shear, w.contact, in);
+  series_.p_foot.add(t, w.p_foot, w.contact, in);
+  series_.depth.add(t, w.depth, w.contact, in);
   ++series_.samples;
 }
 

@@ -41,7 +41,7 @@ w = json.load(open(d + "/summary.json"))["wall_load"]
 tc, win = w["first_contact_time"], w["impact_window"]
 assert tc == next(r["t"] for r in rows if r["contact"] == 1), "first contact"
 for col, key in [("force", "force"), ("normal_force", "normal_force"), ("p_foot", "p_foot")]:
-    top = max(rows, key=lambda r: r[col])
+    top = max((r for r in rows if r["contact"] == 1), key=lambda r: r[col])  # in contact
     assert w[key]["peak"] == top[col] and w[key]["peak_time"] == top["t"], col + " peak"
     imp = max((r for r in rows if tc <= r["t"] <= tc + win), key=lambda r: r[col])
     assert w[key]["impact_peak"] == imp[col] and w[key]["impact_peak_time"] == imp["t"], col
