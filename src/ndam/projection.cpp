@@ -137,31 +137,39 @@ bool NdamSolver::rotational_cell(int i, int k) const {
 }
 
 // chi in p^{n+1} = p^n + phi - chi nu_eff div u*: 2 in the rotational cells (the stress form's
-// factor, above), 0 elsewhere and for the explicit scheme. With the ghost-fluid surface, in a
-// Fluid cell whose 3 x 3 block holds a Surface or Empty cell, chi rolls off where the step is
-// stiff, chi = 2 / (1 + (s / c)^2) with s = nu_eff dt / h^2 (h = min(dx, dz)), c =
-// kRotationalSurfaceStiffness: the update is a Uzawa step of size chi nu_eff on the pressure,
-// exact in the interior's Stokes limit (above) but not next to the stress-free surface, where
-// the full step, repeated from step to step, amplifies once s >> 1. Where s >> c the
-// correction's step chi s -> 2 c^2 / s vanishes (the standard incremental update); where s < c
-// chi stays near 2 (at s = 0.23, the thin front of Setup II at 1.25 mm, 1.97). Measured on
-// Setup II with nu = 1 m^2/s at 5 mm (s up to 140), the fastest cell to 0.3 s with outputs every
-// 0.02 / 0.025 / 0.05 s: 46 / 7.2 / 15 m/s at the gate's top with chi = 2 there (a fixed chi of
-// 1 or 0.5 there: 6-20 m/s), 0.38-0.49 m/s with this roll-off, c = 1 and 2 alike (the app and
-// test NdamGhostSurface.ViscousGateFlowStaysSlow); a linear cap chi = 2 min(1, c / s) left
-// 0.4-5.2 m/s for c = 0.25-4 (docs/validation.md, "Ghost-fluid free surface"). NaSt2D's surface
-// is unchanged.
+// factor, above), 0 elsewhere and for the explicit scheme. The update is a Uzawa step of size
+// chi nu_eff on the pressure, exact in the interior's Stokes limit but not next to the free
+// surface, where the full step, repeated from step to step, amplifies once the step is stiff,
+// s = nu_eff dt / h^2 >> 1 (h = min(dx, dz)). So in a Fluid cell whose 3 x 3 block holds a
+// Surface or Empty cell chi rolls off with r = s / c (c = kRotationalSurfaceStiffness = 2);
+// where s < c it stays near 2 (at s = 0.23, the thin front of Setup II at 1.25 mm, 1.97):
+//  - NaSt2D's surface (Dirichlet Surface cells): chi = 1 + 1 / (1 + r^2), i.e. 1 where s >> c.
+//    A Uzawa step of nu_eff where the full step's 2 nu_eff overshoots: in a resting pile
+//    (nu_eff 20-100 m^2/s, s ~ 1e3) chi = 2 next to the surface let a flag change at the toe
+//    start a pressure oscillation that woke the whole deposit for 0.1 s (a column collapse,
+//    a = 1, phi = 35, delta = 30 deg, 5 mm: rms speed 3.8 -> 21 mm/s from 0.64 to 0.70 s, the top
+//    sinking by a cell, against its creep bound of 10.9 mm/s). chi -> 0 (the ghost surface's
+//    form below) cured that but let the same pile at 2.5 mm creep at 10-16 mm/s (the lagging
+//    pressure of the standard incremental update); chi -> 1 keeps both at 3-4 mm/s
+//    (docs/validation.md, "Coulomb friction in time and deposits at rest").
+//  - the ghost-fluid surface: chi = 2 / (1 + r^2), so chi s -> 2 c^2 / s vanishes where
+//    s >> c (the standard incremental update). Measured on Setup II with nu = 1 m^2/s at 5 mm
+//    (s up to 140), the fastest cell to 0.3 s with outputs every 0.02 / 0.025 / 0.05 s:
+//    46 / 7.2 / 15 m/s at the gate's top with chi = 2 there (a fixed chi of 1 or 0.5 there:
+//    6-20 m/s), 0.38-0.49 m/s with this roll-off, c = 1 and 2 alike (the app and test
+//    NdamGhostSurface.ViscousGateFlowStaysSlow); a linear cap chi = 2 min(1, c / s) left
+//    0.4-5.2 m/s for c = 0.25-4 (docs/validation.md, "Ghost-fluid free surface").
 double NdamSolver::rotational_weight(int i, int k, double dt) const {
   if (cfg_.momentum != Momentum::Implicit || !rotational_cell(i, k)) return 0.0;
   constexpr double kRot = 2.0, kRotationalSurfaceStiffness = 2.0;
-  if (!mac_.ghost_surface) return kRot;
   const int gi = mac_.slab.i0 + i;
   if (!any_flag(gi - 1, gi + 1, k - 1, k + 1,
                 [](CellFlag f) { return f == CellFlag::Surface || f == CellFlag::Empty; }))
     return kRot;
   const double h = std::min(cfg_.grid.dx(), cfg_.grid.dz());
   const double r = nu_rot_(i, k) * dt / (h * h) / kRotationalSurfaceStiffness;
-  return kRot / (1.0 + r * r);
+  const double roll = 1.0 / (1.0 + r * r);
+  return mac_.ghost_surface ? kRot * roll : 1.0 + roll;
 }
 
 double NdamSolver::divergence(const Field& u, const Field& w, int i, int k) const {
