@@ -114,7 +114,10 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              {"Explicit", "Implicit"});
     add_double(*pl, "CFL", d.cfl,
                "safety factor tau of the time step dt = tau min(dx/|u|max, dz/|w|max) (and, "
-               "explicit only, tau / (4 nu_eff,max (1/dx^2 + 1/dz^2)))",
+               "explicit only, tau / (4 nu_eff,max (1/dx^2 + 1/dz^2))); with a free surface "
+               "also min(tau, 0.5) dx / sqrt(g cos(zeta) h) of the deepest column (the "
+               "explicit surface's stability: a wave Courant number of 1 woke resting "
+               "deposits)",
                1e-4, 1.0);
     add_double(*pl, "Donor-cell weight", d.gamma,
                "gamma: blend of the convective terms between central differences (0) and "

@@ -26,6 +26,12 @@ constexpr double kDtHoldFraction = 0.8;
 // relative residual is above this (six orders of magnitude of reduction, e.g. 'Max iterations'
 // too small for a stiff system) stops the run instead of producing a wrong state.
 constexpr double kLinearSolveStopResidual = 1e-6;
+// The surface-wave limit's Courant number sqrt(g cos(zeta) h) dt / dx is at most this, whatever
+// CFL is: the limit is the explicit surface's stability, not an accuracy choice. At a wave
+// Courant number of 1 (CFL 1) a resting pile woke up with every form of the rotational update
+// (a = 1 column, 5 mm: rms speed 31 mm/s against its creep bound 10.9); at 0.5 (the default
+// CFL) it rests (docs/validation.md, "What wakes the deposit").
+constexpr double kMaxWaveCourant = 0.5;
 }  // namespace
 
 NdamSolver::NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo,
@@ -258,7 +264,8 @@ double NdamSolver::stable_dt() const {
   // creep bound 11 mm/s) with steps of 3-4 ms, at 2.7-3.1 mm/s with 2 ms, and the same at 5 mm
   // with 2.4 ms (docs/validation.md, "Coulomb friction in time and deposits at rest").
   if (const double c = surface_wave().speed; c > 0.0)
-    cand(dx / c, "surface gravity waves, dx / sqrt(g cos(zeta) h)");
+    cand(dx / c * std::min(1.0, kMaxWaveCourant / cfg_.cfl),
+         "surface gravity waves, dx / sqrt(g cos(zeta) h)");
   dt *= cfg_.cfl;
   // Implicit and Newtonian: the dt of the assembled momentum matrix is held (kDtHoldFraction).
   if (cfg_.momentum == Momentum::Implicit && rheo_.newtonian() && momentum_dt_ > 0.0 &&
