@@ -333,6 +333,29 @@ void MarkerSet::migrate() {
   }
 }
 
+void MarkerSet::relocate(const std::vector<std::array<int, 4>>& moves) {
+  if (moves.empty()) return;
+  const int nz = grid_.nz;
+  for (const auto& [di, dk, ti, tk] : moves) {
+    if (di < slab_.i0 || di >= slab_.i0 + slab_.nx_local) continue;
+    const double xc = (ti + 0.5) * dx_, zc = (tk + 0.5) * dz_;
+    Marker* best = nullptr;
+    double best_d = 0.0;
+    for (Marker& m : m_) {
+      if (global_column(m.x) != di ||
+          std::clamp(static_cast<int>(std::floor(m.z / dz_)), 0, nz - 1) != dk)
+        continue;
+      const double d = (m.x - xc) * (m.x - xc) + (m.z - zc) * (m.z - zc);
+      if (!best || d < best_d || (d == best_d && m.id < best->id)) best = &m, best_d = d;
+    }
+    if (!best) throw std::logic_error("markers: a void filled from a cell without markers");
+    const double ex = 0.25 * spacing_x(), ez = 0.25 * spacing_z();
+    best->x = std::clamp(best->x, ti * dx_ + ex, (ti + 1) * dx_ - ex);
+    best->z = std::clamp(best->z, tk * dz_ + ez, (tk + 1) * dz_ - ez);
+  }
+  migrate();
+}
+
 // ---------------------------------------------------------------------------------------------
 // obstacles and flags
 

@@ -153,6 +153,12 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "inflow/outflow. false: the box is full (cavity, rest tests)");
     add_int(*pl, "Markers per cell", d.markers_per_cell,
             "markers per cell along x and along z (n x n per cell) of the free surface", 1, 16);
+    add_bool(*pl, "Fill marker voids", d.fill_marker_voids,
+             "move a marker into every cell without markers that is enclosed by material, "
+             "the bed or walls (a void of the sampling, where a stretching flow spread the "
+             "markers apart; its p = 0 would cut the pressure around it), from its neighbour "
+             "with the most markers, by less than a cell; mass is exact (docs/numerics.md, "
+             "'Voids of the marker sampling'). false: the voids stay Empty cells");
     add_enum(*pl, "Surface cell mass", d.surface_mass_share ? "Material share" : "Full cell",
              "mass of a partly filled Surface cell (its top side empty) in the momentum step. "
              "Full cell: NaSt2D's and the paper's; such a cell is driven by gravity over its "
@@ -313,6 +319,7 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                      b.get<std::string>("Left") + "'); allowed: Periodic on both or on neither");
   c.free_surface = pl.get<bool>("Free surface");
   c.markers_per_cell = pl.get<int>("Markers per cell");
+  c.fill_marker_voids = pl.get<bool>("Fill marker voids");
   c.balance_material = pl.get<std::string>("Load balance") == "Material";
   c.initial_depth = pl.get<double>("Initial depth");
   c.initial_x0 = pl.get<double>("Initial x0");

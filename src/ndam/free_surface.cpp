@@ -100,7 +100,55 @@ void NdamSolver::advect_markers(double dt) {
       inflow_held_new_ += given - to_owed;
     }
   }
+  if (const long long n = fill_marker_voids(*markers_new_); n > 0) {
+    stats_.marker_void_fills += n;
+    ++stats_.marker_void_steps;
+  }
   marker_mass_new_ = markers_new_->mass();
+}
+
+// Voids of the marker sampling (issue 11 item 3). A cell without markers whose Empty region
+// reaches neither the atmosphere nor an open side (ndam::enclosed_voids: material, the bed or a
+// wall on every path out) is a hole: its Dirichlet p = 0 cuts the pressure of the material
+// around it (a deposit's wall-foot pressure read 0), although in an incompressible flow the
+// material is there and only its sampling is not. Markers carry a fixed area and are material
+// points, so a stretching flow spreads them apart: the top of a slumping column (its top
+// layer stretched several times along x), or material injected fast that comes to rest (rows
+// spread apart normal to the flow). Each such cell takes one marker from its neighbour with
+// the most markers, if that one keeps at least one (below, left, right, above on ties): the
+// donor's marker nearest to the void, moved the least distance into it (MarkerSet::relocate).
+// Mass is exact (the marker keeps its area), the material moves by less than a cell, and a
+// larger void fills from its rim over the next steps. Not in a periodic box (the flood fill
+// does not wrap). Every rank has the counts of the whole box, so every rank finds the same
+// moves: the same on any number of ranks and across a restart.
+long long NdamSolver::fill_marker_voids(MarkerSet& m) const {
+  if (!cfg_.fill_marker_voids || cfg_.periodic_x()) return 0;
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
+  const auto counts = m.cell_counts();
+  auto all = mac_.gather_columns(std::vector<double>(counts.begin(), counts.end()));
+  std::vector<CellFlag> flags;
+  std::vector<std::uint8_t> mask;
+  mac_.classify(all, flags, mask);
+  const auto voids = enclosed_voids(flags, nx, nz, false, cfg_.outflow_right);
+  auto at = [nz](int gi, int k) { return static_cast<std::size_t>(gi * nz + k); };
+  std::vector<std::array<int, 4>> moves;
+  for (const auto& [gi, k] : voids) {
+    int di = -1, dk = -1;
+    double most = 1.0;  // a donor keeps a marker
+    for (const auto& [ni, nk] : {std::pair{gi, k - 1}, std::pair{gi - 1, k},
+                                 std::pair{gi + 1, k}, std::pair{gi, k + 1}}) {
+      if (ni < 0 || ni >= nx || nk < 0 || nk >= nz || !(all[at(ni, nk)] > most)) continue;
+      most = all[at(ni, nk)];
+      di = ni;
+      dk = nk;
+    }
+    if (di < 0) continue;
+    all[at(di, dk)] -= 1.0;
+    all[at(gi, k)] += 1.0;
+    moves.push_back({di, dk, gi, k});
+  }
+  m.relocate(moves);
+  return static_cast<long long>(moves.size());
 }
 
 // Flags of the markers m (collective): every rank gathers the marker counts of the whole box and

@@ -528,6 +528,11 @@ void NdamSolver::report(nlohmann::json& s) const {
     s["ndam"]["markers"] = marker_mass_.count;
     s["ndam"]["marker_area"] = marker_mass_.area;
     s["ndam"]["seconds_markers_last_step"] = stats_.step_markers;
+    s["ndam"]["marker_void_fills"] = {
+        {"markers", stats_.marker_void_fills},
+        {"steps", stats_.marker_void_steps},
+        {"note", "markers moved into enclosed voids of the sampling, each by less than a cell "
+                 "(docs/numerics.md, 'Voids of the marker sampling')"}};
     if (inflow_mass_) s["ndam"]["inflow_pending_area"] = inflow_pending();
   }
   // The nonlinear pressure system (Pressure coupling = Nonlinear): Newton and Krylov (GMRES)

@@ -817,6 +817,56 @@ TEST(MarkersMpi, InflowChannelMatchesSerial) {
       350);
 }
 
+// Marker voids filled (MarkerSet::relocate, NdamSolver::fill_marker_voids): moves between the
+// two slabs of a seeded layer, both ways, every step, and one within a slab; on 2 ranks the
+// markers that moved, where they went, the flags and the depths are the serial set's.
+TEST(MarkersMpi, RelocateAcrossSlabsMatchesSerial) {
+  const Grid g{40, 20, 2.0, 1.0};
+  MarkerConfig cfg;
+  std::vector<CellFlag> gflags(static_cast<std::size_t>(g.nx * g.nz), CellFlag::Fluid);
+  compare_runs(
+      g, cfg, gflags, [](MarkerSet& m) { m.seed_depth([](double) { return 0.4; }); },
+      [&](MarkerSet& m, const Slab&, int n) {
+        const int k = n % 8;  // rows of the layer (8 of 20 rows seeded), 16 markers a cell
+        m.relocate({{19, k, 20, k}, {21, 7 - k, 20, 7 - k}, {5, k, 5, 8}});
+      },
+      50);
+}
+
+// A move takes the donor's marker nearest to the target's centre, puts it a quarter of the
+// marker spacing inside the target's nearest edge and keeps every marker's area: the counts of
+// the two cells change by one, the total not at all.
+TEST(MarkersFlags, RelocateMovesTheNearestMarkerTheLeastDistance) {
+  const Grid g{6, 5, 0.6, 0.5};
+  MarkerConfig cfg;
+  MarkerSet m(MPI_COMM_SELF, g, Slab::split(g.nx, 0, 1), cfg);
+  m.seed_depth([](double) { return 0.2; });  // rows 0-1 full, 16 markers a cell
+  const auto before = m.cell_counts();
+  const auto nearest = [&]() {  // cell (2, 1)'s marker nearest to (2, 2)'s centre
+    const double xc = 2.5 * g.dx(), zc = 2.5 * g.dz();
+    const auto d2 = [&](const Marker& a) {
+      return (a.x - xc) * (a.x - xc) + (a.z - zc) * (a.z - zc);
+    };
+    const Marker* b = nullptr;
+    for (const Marker& mk : m.markers())
+      if (mk.x >= 0.2 && mk.x < 0.3 && mk.z >= 0.1 && mk.z < 0.2 &&
+          (!b || d2(mk) < d2(*b) || (d2(mk) == d2(*b) && mk.id < b->id)))
+        b = &mk;
+    return *b;
+  }();
+  m.relocate({{2, 1, 2, 2}});
+  const auto after = m.cell_counts();
+  const auto at = [&](int i, int k) { return static_cast<std::size_t>(i * g.nz + k); };
+  EXPECT_EQ(after[at(2, 1)], before[at(2, 1)] - 1);
+  EXPECT_EQ(after[at(2, 2)], 1);
+  EXPECT_EQ(m.global_count(), static_cast<long long>(6 * 2 * 16));
+  for (const Marker& mk : m.markers())
+    if (mk.id == nearest.id) {
+      EXPECT_DOUBLE_EQ(mk.x, nearest.x);  // straight up: x inside the target already
+      EXPECT_DOUBLE_EQ(mk.z, 0.2 + 0.25 * m.spacing_z());
+    }
+}
+
 int main(int argc, char** argv) {
   MPI_Init(&argc, &argv);
   ::testing::InitGoogleTest(&argc, argv);

@@ -163,6 +163,12 @@ class MarkerSet {
   /// Hands markers outside this rank's slab to the neighbour ranks until each rank holds
   /// exactly the markers of its columns (pack, MPI_Sendrecv, unpack; repeated while any moves).
   void migrate();
+  /// Fills sampling voids (collective; every rank passes the same list): for each move
+  /// {donor gi, donor k, target gi, target k} the donor cell's marker nearest to the target
+  /// cell's centre (ties: the smaller id) is put into the target cell, at the point of the cell
+  /// nearest to where it was, a quarter of the marker spacing inside; the rank that holds the
+  /// donor's column moves it, then migrate(). The area moves, none is made or lost.
+  void relocate(const std::vector<std::array<int, 4>>& moves);
 
   // --- obstacles and flags --------------------------------------------------------------------
   /// Records the Obstacle cells of `flags` (owned cells, i * nz + k) with the neighbours' ghost

@@ -90,6 +90,8 @@ struct NdamConfig {
   /// Material tracked by markers: cells with markers are Fluid/Surface, the others Empty (p = 0).
   bool free_surface = false;
   int markers_per_cell = 4;  ///< n_x = n_z of the marker sub-lattice
+  /// a marker into each enclosed void cell of the sampling (NdamSolver::fill_marker_voids)
+  bool fill_marker_voids = true;
   /// 'Surface cell mass' = Material share: the momentum rows of faces next to a partly filled
   /// Surface cell (top side empty) weight their mass and their non-viscous forces by the
   /// material share of the face's cells (momentum.cpp); false: every cell as a full cell.

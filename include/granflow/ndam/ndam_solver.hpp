@@ -243,6 +243,9 @@ class NdamSolver final : public core::Stepper {
   void update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
                     std::vector<std::uint8_t>& mask, std::vector<double>& depth,
                     std::pair<double, int>* deepest = nullptr) const;
+  /// Moves a marker into every enclosed void cell of m that has a neighbour with two or more
+  /// (collective); returns the markers moved.
+  long long fill_marker_voids(MarkerSet& m) const;
   /// The difference of p (ghosts filled) across face (c, i, k), the second cell's value minus
   /// the first's (divided by the spacing: the gradient); on a ghost face of the ghost-fluid
   /// surface the Empty cell's value is the ghost -p (1 - theta) / theta of p = 0 at the

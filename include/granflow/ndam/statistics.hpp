@@ -26,6 +26,10 @@ struct NdamStatistics {
   double retired_pressure_setup_seconds = 0.0, retired_momentum_setup_seconds = 0.0;
   long long retired_preconditioner_retries = 0;  // solves repeated with a fresh preconditioner
 
+  // markers moved into enclosed voids of the sampling (NdamSolver::fill_marker_voids), and the
+  // steps that moved any
+  long long marker_void_fills = 0, marker_void_steps = 0;
+
   // the Coulomb friction of the step (Newton's method in the momentum step): solves beyond the
   // first of a step, the most solves of a step, steps that stopped at the limit and their worst
   // residual (in units of the Coulomb bound)
