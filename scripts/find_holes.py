@@ -2,11 +2,16 @@
 """Holes in the material of a free-surface 2D run, from its fields.h5 (issue 11).
 
 A hole is an Empty cell whose 4-connected region of Empty cells reaches neither the top row of
-the box (the atmosphere) nor an open side (a 2D subdomain's outflow into the next subdomain):
-an enclosed void, with material or a wall on every path out. The air under a free jet's
-overhang reaches the atmosphere around the jet and is not a hole. The same definition as
-ndam::enclosed_voids (include/granflow/ndam/markers.hpp), which the test suite applies at every
-step; this script applies it to every output of a run. Also prints the bottom pressure of the
+the box (the atmosphere) nor an open side: an enclosed void, with material or a wall on every
+path out. The air under a free jet's overhang reaches the atmosphere around the jet and is not
+a hole. Open sides, in a coupled run's channel-wide mesh (flag -1 in the 1D columns): a 2D
+part's outflow into a 1D part (every row), and a 2D part's inflow from a 1D part above the 1D
+layer (the rows whose bottom is at or above the DAM depth of the 1D cell next to it: over the
+depth-averaged layer lies the atmosphere, not a wall). The same definition as
+ndam::enclosed_voids with NdamSolver::void_sides (include/granflow/markers/markers.hpp), which
+the test suite applies at every step (the solver opens the inflow side above the step's
+opening, which the mass sets within 1.5 times the DAM depth; the output has the DAM depth); this
+script applies it to every output of a run. Also prints the bottom pressure of the
 last column of the last 2D mesh (the wall column in a chute ending at a wall).
 
 Uses h5dump/h5ls (hdf5-tools), no Python HDF5 module.
@@ -17,7 +22,7 @@ import subprocess
 import sys
 from collections import deque
 
-EMPTY, FLUID, SURFACE = 3, 1, 2
+EMPTY, FLUID, SURFACE, ONE_D = 3, 1, 2, -1
 
 
 def run(*args):
@@ -35,8 +40,9 @@ def dataset(f, path):
     return vals
 
 
-def holes(flag, open_right):
-    """Cells (k, i) of enclosed voids; flag[k][i] the cell flags of one mesh."""
+def holes(flag, open_right, z_nodes=None, depth_1d=None):
+    """Cells (k, i) of enclosed voids; flag[k][i] the cell flags of one mesh (ONE_D in the 1D
+    columns of a channel-wide mesh, whose depths depth_1d[i] open the sides next to them)."""
     nz, nx = len(flag), len(flag[0])
     reached = [[False] * nx for _ in range(nz)]
     todo = deque()
@@ -51,6 +57,14 @@ def holes(flag, open_right):
     if open_right:
         for k in range(nz):
             seed(k, nx - 1)
+    for i in range(nx):
+        if flag[0][i] == ONE_D:
+            continue
+        for k in range(nz):
+            if i + 1 < nx and flag[k][i + 1] == ONE_D:  # outflow into a 1D part
+                seed(k, i)
+            if i > 0 and flag[k][i - 1] == ONE_D and z_nodes[k] >= depth_1d[i - 1]:
+                seed(k, i)  # inflow from a 1D part, above its layer: the atmosphere
     while todo:
         k, i = todo.popleft()
         for kk, ii in ((k + 1, i), (k - 1, i), (k, i + 1), (k, i - 1)):
@@ -76,7 +90,16 @@ def main():
             x = dataset(f, f"/{g}/{m}/x_nodes")
             z = dataset(f, f"/{g}/{m}/z_nodes")
             # every 2D mesh but the last one of a coupled run drains into its neighbour
-            for k, i in holes(flag, open_right=j + 1 < len(meshes)):
+            depth_1d = None
+            if any(v == ONE_D for v in flag[0]):  # channel-wide mesh: the DAM's depth per column
+                xd, hd = dataset(f, f"/{g}/dam/x_nodes"), dataset(f, f"/{g}/dam/h")
+                hd = hd[0] if isinstance(hd[0], list) else hd
+                depth_1d = []
+                for i in range(len(x) - 1):
+                    xc = 0.5 * (x[i] + x[i + 1])
+                    c = max(0, min(len(hd) - 1, next((n for n in range(len(xd) - 1) if xd[n + 1] > xc), len(hd) - 1)))
+                    depth_1d.append(hd[c])
+            for k, i in holes(flag, open_right=j + 1 < len(meshes), z_nodes=z, depth_1d=depth_1d):
                 found.append(f"{m}: x = {0.5 * (x[i] + x[i + 1]):.4f} m, z = {0.5 * (z[k] + z[k + 1]):.4f} m")
         p = dataset(f, f"/{g}/{meshes[-1]}/p_Pa")
         total += len(found)

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace granflow::ndam {
 
@@ -533,7 +534,7 @@ std::vector<Marker> MarkerSet::gather() const {
 // holes
 
 std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flags, int nx, int nz,
-                                               bool open_left, bool open_right) {
+                                               VoidSides sides) {
   if (static_cast<int>(flags.size()) != nx * nz)
     throw std::invalid_argument("enclosed_voids: flags must hold nx * nz cells");
   const auto at = [nz](int gi, int k) { return static_cast<std::size_t>(gi * nz + k); };
@@ -548,8 +549,8 @@ std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flag
   };
   for (int gi = 0; gi < nx; ++gi) seed(gi, nz - 1);
   for (int k = 0; k < nz; ++k) {
-    if (open_left) seed(0, k);
-    if (open_right) seed(nx - 1, k);
+    if (k >= sides.left_from) seed(0, k);
+    if (k >= sides.right_from) seed(nx - 1, k);
   }
   while (!stack.empty()) {
     const auto [gi, k] = stack.back();
@@ -564,6 +565,46 @@ std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flag
     for (int k = 0; k < nz; ++k)
       if (flags[at(gi, k)] == CellFlag::Empty && !open[at(gi, k)]) holes.push_back({gi, k});
   return holes;
+}
+
+std::vector<std::array<int, 4>> void_fill_moves(std::vector<double> counts,
+                                                const std::vector<CellFlag>& flags, int nx,
+                                                int nz, VoidSides sides) {
+  if (static_cast<int>(counts.size()) != nx * nz)
+    throw std::invalid_argument("void_fill_moves: counts must hold nx * nz cells");
+  const auto voids = enclosed_voids(flags, nx, nz, sides);
+  const auto at = [nz](int gi, int k) { return static_cast<std::size_t>(gi * nz + k); };
+  const auto inside = [nx, nz](int gi, int k) { return gi >= 0 && gi < nx && k >= 0 && k < nz; };
+  const auto passable = [&](int gi, int k) {
+    return inside(gi, k) && flags[at(gi, k)] != CellFlag::Obstacle;
+  };
+  std::vector<std::array<int, 4>> moves;
+  for (const auto& [gi, k] : voids) {
+    int di = -1, dk = -1;
+    double most = 1.0;  // a donor keeps a marker
+    const auto consider = [&](int ni, int nk) {
+      if (!inside(ni, nk) || !(counts[at(ni, nk)] > most)) return;
+      most = counts[at(ni, nk)];
+      di = ni;
+      dk = nk;
+    };
+    for (const auto& [ni, nk] : {std::pair{gi, k - 1}, std::pair{gi - 1, k},
+                                 std::pair{gi + 1, k}, std::pair{gi, k + 1}})
+      consider(ni, nk);
+    if (di < 0) {  // the second ring: the diagonals first (the nearer)
+      for (const auto& [oi, ok] : {std::pair{-1, -1}, std::pair{1, -1}, std::pair{-1, 1},
+                                   std::pair{1, 1}})
+        if (passable(gi + oi, k) || passable(gi, k + ok)) consider(gi + oi, k + ok);
+      for (const auto& [oi, ok] : {std::pair{0, -2}, std::pair{-2, 0}, std::pair{2, 0},
+                                   std::pair{0, 2}})
+        if (passable(gi + oi / 2, k + ok / 2)) consider(gi + oi, k + ok);
+    }
+    if (di < 0) continue;
+    counts[at(di, dk)] -= 1.0;
+    counts[at(gi, k)] += 1.0;
+    moves.push_back({di, dk, gi, k});
+  }
+  return moves;
 }
 
 MarkerState MarkerSet::save() const {

@@ -157,8 +157,11 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "move a marker into every cell without markers that is enclosed by material, "
              "the bed or walls (a void of the sampling, where a stretching flow spread the "
              "markers apart; its p = 0 would cut the pressure around it), from its neighbour "
-             "with the most markers, by less than a cell; mass is exact (docs/numerics.md, "
-             "'Voids of the marker sampling'). false: the voids stay Empty cells");
+             "with the most markers (where none keeps one, from the second ring), by less than "
+             "two cells; mass is exact. Over the opening of a 1D-to-2D interface the side is "
+             "open (the atmosphere over the 1D layer), so the air there is not a void "
+             "(docs/numerics.md, 'Voids of the marker sampling'). false: the voids stay Empty "
+             "cells");
     add_enum(*pl, "Surface cell mass", d.surface_mass_share ? "Material share" : "Full cell",
              "mass of a partly filled Surface cell (its top side empty) in the momentum step. "
              "Full cell: NaSt2D's and the paper's; such a cell is driven by gravity over its "

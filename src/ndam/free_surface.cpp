@@ -117,7 +117,11 @@ void NdamSolver::advect_markers(double dt) {
 // spread apart normal to the flow). Each such cell takes one marker from its neighbour with
 // the most markers, if that one keeps at least one (below, left, right, above on ties): the
 // donor's marker nearest to the void, moved the least distance into it (MarkerSet::relocate).
-// Mass is exact (the marker keeps its area), the material moves by less than a cell, and a
+// Where no neighbour can give (a void ringed by cells of one marker each: the expanding flow
+// behind a 1D-to-2D interface that a shock has reached, the static lab chute), the donor is
+// the cell of the second ring (the four diagonal cells, then the four two cells away, each
+// reached through a cell that is not an obstacle) with the most markers, on the same rule.
+// Mass is exact (the marker keeps its area), the material moves by less than two cells, and a
 // larger void fills from its rim over the next steps. Not in a periodic box (the flood fill
 // does not wrap). Every rank has the counts of the whole box, so every rank finds the same
 // moves: the same on any number of ranks and across a restart.
@@ -129,26 +133,24 @@ long long NdamSolver::fill_marker_voids(MarkerSet& m) const {
   std::vector<CellFlag> flags;
   std::vector<std::uint8_t> mask;
   mac_.classify(all, flags, mask);
-  const auto voids = enclosed_voids(flags, nx, nz, false, cfg_.outflow_right);
-  auto at = [nz](int gi, int k) { return static_cast<std::size_t>(gi * nz + k); };
-  std::vector<std::array<int, 4>> moves;
-  for (const auto& [gi, k] : voids) {
-    int di = -1, dk = -1;
-    double most = 1.0;  // a donor keeps a marker
-    for (const auto& [ni, nk] : {std::pair{gi, k - 1}, std::pair{gi - 1, k},
-                                 std::pair{gi + 1, k}, std::pair{gi, k + 1}}) {
-      if (ni < 0 || ni >= nx || nk < 0 || nk >= nz || !(all[at(ni, nk)] > most)) continue;
-      most = all[at(ni, nk)];
-      di = ni;
-      dk = nk;
-    }
-    if (di < 0) continue;
-    all[at(di, dk)] -= 1.0;
-    all[at(gi, k)] += 1.0;
-    moves.push_back({di, dk, gi, k});
-  }
+  const auto moves = void_fill_moves(all, flags, nx, nz, void_sides());
   m.relocate(moves);
   return static_cast<long long>(moves.size());
+}
+
+// Over the opening of a 1D-to-2D interface lies the atmosphere above the 1D layer (the 2D side's
+// boundary faces there are closed only because no material crosses them), so an Empty region
+// that reaches the left side above the opening is open, not a hole: the air between the
+// incoming layer and the face of a deposit that a shock has brought to the interface. Under a
+// silo gate's lip the side is a wall.
+VoidSides NdamSolver::void_sides() const {
+  VoidSides s;
+  if (cfg_.outflow_right) s.right_from = 0;
+  if (cfg_.inflow && inflow_mass_) {
+    const double rows = std::ceil(std::max(0.0, inflow_now_[0]) / cfg_.grid.dz() - 1e-9);
+    s.left_from = static_cast<int>(std::min<double>(rows, cfg_.grid.nz));
+  }
+  return s;
 }
 
 // Flags of the markers m (collective): every rank gathers the marker counts of the whole box and

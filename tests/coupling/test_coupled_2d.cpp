@@ -440,7 +440,7 @@ std::size_t hole_cells(const core::Stepper& s) {
     std::vector<ndam::CellFlag> f(static_cast<std::size_t>(g.nx * g.nz));
     for (int gi = 0; gi < g.nx; ++gi)
       for (int k = 0; k < g.nz; ++k) f[static_cast<std::size_t>(gi * g.nz + k)] = nd->flag(gi, k);
-    n += ndam::enclosed_voids(f, g.nx, g.nz, false, nd->config().outflow_right).size();
+    n += ndam::enclosed_voids(f, g.nx, g.nz, nd->void_sides()).size();
   }
   return n;
 }

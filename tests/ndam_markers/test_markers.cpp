@@ -693,6 +693,22 @@ TEST(MarkersFlags, EnclosedVoidsAreHolesOverhangsAreNot) {
   const std::vector<std::string> pocket{"......", "SSSSSS", "FFFF..", "FFFFFF"};
   EXPECT_EQ(enclosed_voids(flags(pocket), 6, 4).size(), 2u);
   EXPECT_TRUE(enclosed_voids(flags(pocket), 6, 4, false, true).empty());
+  // The first columns of a 2D part fed through a 1D-to-2D interface at its left side, a shock's
+  // deposit brought up to it: the incoming layer (rows 0-1) runs under the deposit, whose face
+  // overhangs it and meets the side at rows 4-5, and the air between them (column 0 rows 1-3,
+  // column 1 rows 2-3) touches the side above the opening, where the atmosphere lies over the
+  // 1D layer: open. At a closed side (a silo gate's lip, a wall), or where the opening reaches
+  // over the pocket (the side open from row 4 only: the pocket is inside the layer that enters),
+  // the same cells are a hole.
+  const std::vector<std::string> toe{"......", "SSSSSS", "FFFFFF", "..FFFF", "..FFFF", ".SFFFF",
+                                     "FFFFFF"};
+  const auto closed = enclosed_voids(flags(toe), 6, 7);
+  ASSERT_EQ(closed.size(), 5u);
+  EXPECT_EQ(closed[0], (std::array<int, 2>{0, 1}));
+  EXPECT_TRUE(enclosed_voids(flags(toe), 6, 7, VoidSides{2, VoidSides::kClosed}).empty());
+  EXPECT_TRUE(enclosed_voids(flags(toe), 6, 7, VoidSides{3, VoidSides::kClosed}).empty());
+  EXPECT_EQ(enclosed_voids(flags(toe), 6, 7, VoidSides{4, VoidSides::kClosed}).size(), 5u);
+  EXPECT_EQ(enclosed_voids(flags(toe), 6, 7, VoidSides{VoidSides::kClosed, 0}).size(), 5u);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -865,6 +881,55 @@ TEST(MarkersFlags, RelocateMovesTheNearestMarkerTheLeastDistance) {
       EXPECT_DOUBLE_EQ(mk.x, nearest.x);  // straight up: x inside the target already
       EXPECT_DOUBLE_EQ(mk.z, 0.2 + 0.25 * m.spacing_z());
     }
+}
+
+// The donors of a void (ndam::void_fill_moves) on a 5 x 5 box of Fluid cells with one Empty
+// cell (2, 2) in its middle: a 4-neighbour that keeps a marker gives first; where every
+// 4-neighbour holds one marker (the ring that the static lab chute's expanding inflow leaves),
+// the second ring gives, the cell with the most markers, never through an Obstacle; a void with
+// no donor is left. Counts are the total of the moves (mass exact).
+TEST(MarkersFlags, VoidTakesItsMarkerFromTheNearestRingThatCanGive) {
+  const int nx = 5, nz = 5;
+  const auto at = [](int i, int k) { return static_cast<std::size_t>(i * 5 + k); };
+  const auto box = [&](double fill) {
+    std::vector<double> c(static_cast<std::size_t>(nx * nz), fill);
+    c[at(2, 2)] = 0.0;
+    return c;
+  };
+  std::vector<CellFlag> flags(static_cast<std::size_t>(nx * nz), CellFlag::Fluid);
+  flags[at(2, 2)] = CellFlag::Empty;
+  using Move = std::array<int, 4>;
+  // every cell with 4 markers: the cell below gives (the first of the equal 4-neighbours)
+  auto mv = void_fill_moves(box(4.0), flags, nx, nz, VoidSides{});
+  ASSERT_EQ(mv.size(), 1u);
+  EXPECT_EQ(mv[0], (Move{2, 1, 2, 2}));
+  // the 4-neighbours hold 1 marker each but the right one 2: it gives, though a diagonal holds 9
+  auto c = box(1.0);
+  c[at(3, 2)] = 2.0;
+  c[at(1, 1)] = 9.0;
+  mv = void_fill_moves(c, flags, nx, nz, VoidSides{});
+  ASSERT_EQ(mv.size(), 1u);
+  EXPECT_EQ(mv[0], (Move{3, 2, 2, 2}));
+  // a ring of single markers: the second ring's fullest cell gives, the one two cells above (4)
+  // before the diagonal below-left (3)
+  c = box(1.0);
+  c[at(1, 1)] = 3.0;
+  c[at(2, 4)] = 4.0;
+  mv = void_fill_moves(c, flags, nx, nz, VoidSides{});
+  ASSERT_EQ(mv.size(), 1u);
+  EXPECT_EQ(mv[0], (Move{2, 4, 2, 2}));
+  // ... but not through an Obstacle between them: then the diagonal
+  auto blocked = flags;
+  blocked[at(2, 3)] = CellFlag::Obstacle;
+  mv = void_fill_moves(c, blocked, nx, nz, VoidSides{});
+  ASSERT_EQ(mv.size(), 1u);
+  EXPECT_EQ(mv[0], (Move{1, 1, 2, 2}));
+  // single markers everywhere: no cell can give, the void is left (nothing made)
+  EXPECT_TRUE(void_fill_moves(box(1.0), flags, nx, nz, VoidSides{}).empty());
+  // a void that reaches an open side is not a void: an Empty column 2 open at the top
+  auto open = flags;
+  for (int k = 2; k < nz; ++k) open[at(2, k)] = CellFlag::Empty;
+  EXPECT_TRUE(void_fill_moves(box(4.0), open, nx, nz, VoidSides{}).empty());
 }
 
 int main(int argc, char** argv) {

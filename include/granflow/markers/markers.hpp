@@ -236,14 +236,42 @@ class MarkerSet {
   long long injected_ = 0, removed_ = 0, migrated_ = 0;  // this rank's counters
 };
 
+/// The sides of a box through which an Empty region reaches the atmosphere: rows k >= left_from
+/// of the left side, k >= right_from of the right side (0: every row, an outflow; kClosed: no
+/// row, a wall or a gate). A 2D part fed by a 1D part opens its left side above the 1D layer.
+struct VoidSides {
+  static constexpr int kClosed = 1 << 30;
+  int left_from = kClosed;
+  int right_from = kClosed;
+};
+
 /// Holes in the material (issue 11): the Empty cells of `flags` (the whole box, gi * nz + k)
 /// that enclosed voids are made of, i.e. whose 4-connected region of Empty cells reaches neither
-/// the top row of the box (the atmosphere above the flow) nor an open side (`open_left`,
-/// `open_right`: an outflow). Such a cell has material or a wall on every path out; in an
-/// incompressible free-surface flow it is a marker-sampling artefact, and its p = 0 Dirichlet
-/// value cuts the pressure of the material around it. The air under a free jet's overhang
-/// reaches the atmosphere around the jet and is not a hole. Returns {gi, k} of each hole cell.
+/// the top row of the box (the atmosphere above the flow) nor an open part of a side (`sides`).
+/// Such a cell has material or a wall on every path out; in an incompressible free-surface flow
+/// it is a marker-sampling artefact, and its p = 0 Dirichlet value cuts the pressure of the
+/// material around it. The air under a free jet's overhang reaches the atmosphere around the
+/// jet and is not a hole. Returns {gi, k} of each hole cell.
 std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flags, int nx, int nz,
-                                               bool open_left = false, bool open_right = false);
+                                               VoidSides sides);
+/// The moves that fill the enclosed voids (enclosed_voids with `sides`) of a sampling with
+/// `counts` markers per cell (whole box, gi * nz + k; `flags` its cell flags): each void cell,
+/// in the order enclosed_voids lists them, takes one marker from the 4-neighbour with the most
+/// markers that keeps at least one (ties: below, left, right, above), else from the cell of the
+/// second ring with the most (the diagonals through a cell that is not an Obstacle, lower
+/// before upper, left before right; then below, left, right and above two cells away, through
+/// a middle cell that is not an Obstacle); counts are updated move by move. A void with no such
+/// donor is left. Returns {donor gi, donor k, target gi, target k} (MarkerSet::relocate).
+std::vector<std::array<int, 4>> void_fill_moves(std::vector<double> counts,
+                                                const std::vector<CellFlag>& flags, int nx,
+                                                int nz, VoidSides sides);
+/// The same with each side either open on every row (an outflow) or closed.
+inline std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flags, int nx,
+                                                      int nz, bool open_left = false,
+                                                      bool open_right = false) {
+  return enclosed_voids(flags, nx, nz,
+                        VoidSides{open_left ? 0 : VoidSides::kClosed,
+                                  open_right ? 0 : VoidSides::kClosed});
+}
 
 }  // namespace granflow::ndam

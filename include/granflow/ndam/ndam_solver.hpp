@@ -146,6 +146,10 @@ class NdamSolver final : public core::Stepper {
   CellFlag flag(int gi, int k) const {
     return mac_.flags[static_cast<std::size_t>(gi * cfg_.grid.nz + k)];
   }
+  /// The open sides of the box for ndam::enclosed_voids (the holes of the material): an
+  /// outflow's every row, and the rows above the opening of a 1D-to-2D interface, where the
+  /// atmosphere lies over the 1D layer; a wall, the gate and the rows of an opening are closed.
+  VoidSides void_sides() const;
   /// Largest nu_eff of the current state [m^2/s].
   double max_nu_eff() const;
   /// The fastest long surface wave of the current state: sqrt(g cos(zeta) h) [m/s] of the
@@ -243,8 +247,8 @@ class NdamSolver final : public core::Stepper {
   void update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
                     std::vector<std::uint8_t>& mask, std::vector<double>& depth,
                     std::pair<double, int>* deepest = nullptr) const;
-  /// Moves a marker into every enclosed void cell of m that has a neighbour with two or more
-  /// (collective); returns the markers moved.
+  /// Moves a marker into every enclosed void cell of m that has a neighbour (or, failing that,
+  /// a cell of the second ring) with two or more (collective); returns the markers moved.
   long long fill_marker_voids(MarkerSet& m) const;
   /// The difference of p (ghosts filled) across face (c, i, k), the second cell's value minus
   /// the first's (divided by the spacing: the gradient); on a ghost face of the ghost-fluid
