@@ -129,8 +129,8 @@ void NdamSolver::project(double dt) {
 // is one-sided), where 2 nu_eff div u* is not that error: in a resting pile (nu_eff 20-50
 // m^2/s) it swung the pressure of the cells on the pile's face between +50 and -380 m^2/s^2
 // from step to step and threw their ghost faces off at 6 m/s (Setup II at 5 mm,
-// docs/validation.md, "Ghost-fluid free surface"). The Fluid cells next to the surface keep
-// it, with a capped weight where the step is stiff (rotational_weight).
+// docs/validation.md, "Ghost-fluid free surface"). Every Fluid cell keeps
+// it, with a weight that rolls off where the step is stiff (rotational_weight).
 bool NdamSolver::rotational_cell(int i, int k) const {
   const int gi = mac_.slab.i0 + i;
   return mac_.gflag(gi, k) == CellFlag::Fluid && mac_.p_unknown(gi, k);
@@ -138,21 +138,27 @@ bool NdamSolver::rotational_cell(int i, int k) const {
 
 // chi in p^{n+1} = p^n + phi - chi nu_eff div u*: 2 in the rotational cells (the stress form's
 // factor, above), 0 elsewhere and for the explicit scheme. The update is a Uzawa step of size
-// chi nu_eff on the pressure, exact in the interior's Stokes limit but not next to the free
-// surface, where the full step, repeated from step to step, amplifies once the step is stiff,
-// s = nu_eff dt / h^2 >> 1 (h = min(dx, dz)). So in a Fluid cell whose 3 x 3 block holds a
-// Surface or Empty cell chi rolls off with r = s / c (c = kRotationalSurfaceStiffness = 2);
-// where s < c it stays near 2 (at s = 0.23, the thin front of Setup II at 1.25 mm, 1.97):
-//  - NaSt2D's surface (Dirichlet Surface cells): chi = 1 + 1 / (1 + r^2), i.e. 1 where s >> c.
-//    A Uzawa step of nu_eff where the full step's 2 nu_eff overshoots: in a resting pile
-//    (nu_eff 20-100 m^2/s, s ~ 1e3) chi = 2 next to the surface let a flag change at the toe
-//    start a pressure oscillation that woke the whole deposit for 0.1 s (a column collapse,
-//    a = 1, phi = 35, delta = 30 deg, 5 mm: rms speed 3.8 -> 21 mm/s from 0.64 to 0.70 s, the top
-//    sinking by a cell, against its creep bound of 10.9 mm/s). chi -> 0 (the ghost surface's
-//    form below) cured that but let the same pile at 2.5 mm creep at 10-16 mm/s (the lagging
-//    pressure of the standard incremental update); chi -> 1 keeps both at 3-4 mm/s
-//    (docs/validation.md, "Coulomb friction in time and deposits at rest").
-//  - the ghost-fluid surface: chi = 2 / (1 + r^2), so chi s -> 2 c^2 / s vanishes where
+// chi nu_eff on the pressure, exact in the Stokes limit of a constant nu_eff but not next to the
+// free surface nor where nu_eff jumps between neighbours, and there the full step, repeated
+// from step to step, amplifies once the step is stiff, s = nu_eff dt / h^2 >> 1
+// (h = min(dx, dz)). So chi rolls off with r = s / c (c = kRotationalStiffness = 2); where
+// s < c it stays near 2 (at s = 0.23, the thin front of Setup II at 1.25 mm, 1.97):
+//  - in the interior and next to NaSt2D's surface (Dirichlet Surface cells): chi = 1 + 1 / (1 +
+//    r^2), i.e. 1 where s >> c, a Uzawa step of nu_eff where the full step's 2 nu_eff overshoots.
+//    Next to the surface (2026-12-04): in a resting pile (nu_eff 20-100 m^2/s, s ~ 1e3) chi = 2
+//    let a flag change at the toe start a pressure oscillation that woke the whole deposit for
+//    0.1 s (a column collapse, a = 1, phi = 35, delta = 30 deg, 5 mm: rms speed 3.8 -> 21 mm/s
+//    from 0.64 to 0.70 s, the top sinking by a cell, against its creep bound of 10.9 mm/s).
+//    chi -> 0 (the ghost surface's form below) cured that but let the same pile at 2.5 mm creep
+//    at 10-16 mm/s (the lagging pressure of the standard incremental update); chi -> 1 keeps
+//    both at 3-4 mm/s (docs/validation.md, "Coulomb friction in time and deposits at rest").
+//    In the interior (2026-12-05): a pile of phi = 40, delta = 20 deg (a = 1, 5 mm) at rest
+//    from 0.40 s creeps along a one-cell shear band from its top at the symmetry wall to the
+//    toe, where nu_eff is orders of magnitude below the plug's on either side; with chi = 2
+//    the band's cells started a row-by-row pressure oscillation at 0.546 s (u 7 mm/s -> 20-60
+//    mm/s in 3 steps, no flag change) and the pile woke five times to 0.67 s (rms 28.5 mm/s
+//    against its creep bound of 10.8 mm/s); rolled off it rests at 4-6.5 mm/s.
+//  - next to the ghost-fluid surface: chi = 2 / (1 + r^2), so chi s -> 2 c^2 / s vanishes where
 //    s >> c (the standard incremental update). Measured on Setup II with nu = 1 m^2/s at 5 mm
 //    (s up to 140), the fastest cell to 0.3 s with outputs every 0.02 / 0.025 / 0.05 s:
 //    46 / 7.2 / 15 m/s at the gate's top with chi = 2 there (a fixed chi of 1 or 0.5 there:
@@ -161,15 +167,16 @@ bool NdamSolver::rotational_cell(int i, int k) const {
 //    0.4-5.2 m/s for c = 0.25-4 (docs/validation.md, "Ghost-fluid free surface").
 double NdamSolver::rotational_weight(int i, int k, double dt) const {
   if (cfg_.momentum != Momentum::Implicit || !rotational_cell(i, k)) return 0.0;
-  constexpr double kRot = 2.0, kRotationalSurfaceStiffness = 2.0;
-  const int gi = mac_.slab.i0 + i;
-  if (!any_flag(gi - 1, gi + 1, k - 1, k + 1,
-                [](CellFlag f) { return f == CellFlag::Surface || f == CellFlag::Empty; }))
-    return kRot;
+  constexpr double kRot = 2.0, kRotationalStiffness = 2.0;
   const double h = std::min(cfg_.grid.dx(), cfg_.grid.dz());
-  const double r = nu_rot_(i, k) * dt / (h * h) / kRotationalSurfaceStiffness;
+  const double r = nu_rot_(i, k) * dt / (h * h) / kRotationalStiffness;
   const double roll = 1.0 / (1.0 + r * r);
-  return mac_.ghost_surface ? kRot * roll : 1.0 + roll;
+  const int gi = mac_.slab.i0 + i;
+  if (mac_.ghost_surface &&
+      any_flag(gi - 1, gi + 1, k - 1, k + 1,
+               [](CellFlag f) { return f == CellFlag::Surface || f == CellFlag::Empty; }))
+    return kRot * roll;
+  return 1.0 + roll;
 }
 
 double NdamSolver::divergence(const Field& u, const Field& w, int i, int k) const {

@@ -703,6 +703,25 @@ TEST(NdamDeposit, SquareColumnRestsThroughTheFlagChangesAtItsToe) {
   }
 }
 
+// A steeper-friction column (issue 11 item 2; the independent tester's a = 1, phi = 40,
+// delta = 20 deg, 5 mm, 100 x 30 cells): it stops spreading by 0.40 s and then creeps along a
+// one-cell shear band from its top at the symmetry wall to the toe, across which nu_eff jumps by
+// orders of magnitude. With the interior's rotational update at its full weight chi = 2 (the
+// exact Uzawa step only for a constant nu_eff) the band's cells started a row-by-row pressure
+// oscillation, rms speed 7 -> 19 mm/s in three steps without a flag change, and the pile woke
+// five times to 0.67 s (28.5 mm/s in the tester's run), the top sinking by a cell. Rolled off
+// to chi = 1 where the step is stiff (projection.cpp, rotational_weight) it rests. Asserted:
+// rms speed below u_c = 1/m_c + H/m_y at every output from 0.6 s, the front and the top within
+// the creep plus a cell, at the scene's CFL 0.5 and at CFL 1. About 10 s.
+TEST(NdamDeposit, SteepFrictionPileRestsThroughItsShearBand) {
+  for (const double cfl : {0.0, 1.0}) {
+    SCOPED_TRACE(cfl > 0.0 ? "CFL 1" : "the scene's CFL 0.5");
+    const auto a = column_collapse(100.0, 100, 30, Column{40.0, 20.0, 0.1, 0.15, cfl});
+    ASSERT_EQ(a.t.size(), 30u);
+    expect_collapse_rests(a, 1.0 / 100.0 + a.top[11] / 100.0, 0.005, 0.005);  // top at 0.6 s
+  }
+}
+
 namespace {
 // The shipped column collapse at 2.5 mm (200 x 100) to t_end with the outputs of the scene
 // (0.05 s), marker voids filled or not: the enclosed void cells (ndam::enclosed_voids of the
