@@ -7,16 +7,18 @@ path out. The air under a free jet's overhang reaches the atmosphere around the 
 a hole. Open sides, in a coupled run's channel-wide mesh (flag -1 in the 1D columns): a 2D
 part's outflow into a 1D part (every row), and a 2D part's inflow from a 1D part above the 1D
 layer (the rows whose bottom is at or above the DAM depth of the 1D cell next to it: over the
-depth-averaged layer lies the atmosphere, not a wall). The same definition as
+depth-averaged layer lies the atmosphere, not a wall); the channel's right end when its Right
+boundary is an Outflow (read from the run's summary.json). The same definition as
 ndam::enclosed_voids with NdamSolver::void_sides (include/granflow/markers/markers.hpp), which
-the test suite applies at every step (the solver opens the inflow side above the step's
-opening, which the mass sets within 1.5 times the DAM depth; the output has the DAM depth); this
+the test suite applies at every step (the solver opens the inflow side above the DAM depth at
+the interface; the output has the DAM depth of the 1D cell next to it); this
 script applies it to every output of a run. Also prints the bottom pressure of the
 last column of the last 2D mesh (the wall column in a chute ending at a wall).
 
 Uses h5dump/h5ls (hdf5-tools), no Python HDF5 module.
 Usage: scripts/find_holes.py OUTPUT_DIR [--quiet]
 Exit status 1 if any hole was found, else 0."""
+import json
 import re
 import subprocess
 import sys
@@ -80,6 +82,14 @@ def main():
     out, quiet = sys.argv[1], "--quiet" in sys.argv[2:]
     f = f"{out}/fields.h5"
     steps = re.findall(r"^(step_\d+)", run("h5ls", f), re.M)
+    # the channel's right end: an outflow is open on every row (NdamConfig::outflow_right)
+    outflow_end = False
+    try:
+        with open(f"{out}/summary.json") as sj:
+            params = json.load(sj).get("parameters", {})
+        outflow_end = params.get("Channel", {}).get("Right boundary", {}).get("Type") == "Outflow"
+    except (OSError, ValueError):
+        pass
     total, outputs_with_holes = 0, 0
     for g in steps:
         t = float(re.search(r"\(0\): ([-+\deE.]+)", run("h5dump", "-a", f"/{g}/time", f)).group(1))
@@ -99,7 +109,8 @@ def main():
                     xc = 0.5 * (x[i] + x[i + 1])
                     c = max(0, min(len(hd) - 1, next((n for n in range(len(xd) - 1) if xd[n + 1] > xc), len(hd) - 1)))
                     depth_1d.append(hd[c])
-            for k, i in holes(flag, open_right=j + 1 < len(meshes), z_nodes=z, depth_1d=depth_1d):
+            open_right = j + 1 < len(meshes) or outflow_end
+            for k, i in holes(flag, open_right=open_right, z_nodes=z, depth_1d=depth_1d):
                 found.append(f"{m}: x = {0.5 * (x[i] + x[i + 1]):.4f} m, z = {0.5 * (z[k] + z[k + 1]):.4f} m")
         p = dataset(f, f"/{g}/{meshes[-1]}/p_Pa")
         total += len(found)

@@ -567,6 +567,11 @@ std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flag
   return holes;
 }
 
+int first_row_above(double depth, double dz, int nz) {
+  const double rows = std::ceil(std::max(0.0, depth) / dz - 1e-9);
+  return static_cast<int>(std::min<double>(rows, nz));
+}
+
 std::vector<std::array<int, 4>> void_fill_moves(std::vector<double> counts,
                                                 const std::vector<CellFlag>& flags, int nx,
                                                 int nz, VoidSides sides) {
@@ -575,8 +580,12 @@ std::vector<std::array<int, 4>> void_fill_moves(std::vector<double> counts,
   const auto voids = enclosed_voids(flags, nx, nz, sides);
   const auto at = [nz](int gi, int k) { return static_cast<std::size_t>(gi * nz + k); };
   const auto inside = [nx, nz](int gi, int k) { return gi >= 0 && gi < nx && k >= 0 && k < nz; };
-  const auto passable = [&](int gi, int k) {
-    return inside(gi, k) && flags[at(gi, k)] != CellFlag::Obstacle;
+  // the second ring is reached through a cell of the ring around the void that held markers
+  // before this step's moves (not an obstacle, not a void cell): a void ringed by single
+  // markers takes from beyond them; a larger void fills from its rim, one layer per step
+  const std::vector<double> held = counts;  // the ring as it was before this step's moves
+  const auto through = [&](int gi, int k) {
+    return inside(gi, k) && flags[at(gi, k)] != CellFlag::Obstacle && held[at(gi, k)] >= 1.0;
   };
   std::vector<std::array<int, 4>> moves;
   for (const auto& [gi, k] : voids) {
@@ -591,13 +600,13 @@ std::vector<std::array<int, 4>> void_fill_moves(std::vector<double> counts,
     for (const auto& [ni, nk] : {std::pair{gi, k - 1}, std::pair{gi - 1, k},
                                  std::pair{gi + 1, k}, std::pair{gi, k + 1}})
       consider(ni, nk);
-    if (di < 0) {  // the second ring: the diagonals first (the nearer)
+    if (di < 0) {  // the second ring, the fullest cell; on ties the diagonals (the nearer)
       for (const auto& [oi, ok] : {std::pair{-1, -1}, std::pair{1, -1}, std::pair{-1, 1},
                                    std::pair{1, 1}})
-        if (passable(gi + oi, k) || passable(gi, k + ok)) consider(gi + oi, k + ok);
+        if (through(gi + oi, k) || through(gi, k + ok)) consider(gi + oi, k + ok);
       for (const auto& [oi, ok] : {std::pair{0, -2}, std::pair{-2, 0}, std::pair{2, 0},
                                    std::pair{0, 2}})
-        if (passable(gi + oi / 2, k + ok / 2)) consider(gi + oi, k + ok);
+        if (through(gi + oi / 2, k + ok / 2)) consider(gi + oi, k + ok);
     }
     if (di < 0) continue;
     counts[at(di, dk)] -= 1.0;

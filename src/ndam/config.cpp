@@ -157,8 +157,8 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "move a marker into every cell without markers that is enclosed by material, "
              "the bed or walls (a void of the sampling, where a stretching flow spread the "
              "markers apart; its p = 0 would cut the pressure around it), from its neighbour "
-             "with the most markers (where none keeps one, from the second ring), by less than "
-             "two cells; mass is exact. Over the opening of a 1D-to-2D interface the side is "
+             "with the most markers (where none keeps one, from the second ring), by about a "
+             "cell (at most about two); mass is exact. Over the opening of a 1D-to-2D interface the side is "
              "open (the atmosphere over the 1D layer), so the air there is not a void "
              "(docs/numerics.md, 'Voids of the marker sampling'). false: the voids stay Empty "
              "cells");

@@ -119,10 +119,11 @@ void NdamSolver::advect_markers(double dt) {
 // donor's marker nearest to the void, moved the least distance into it (MarkerSet::relocate).
 // Where no neighbour can give (a void ringed by cells of one marker each: the expanding flow
 // behind a 1D-to-2D interface that a shock has reached, the static lab chute), the donor is
-// the cell of the second ring (the four diagonal cells, then the four two cells away, each
-// reached through a cell that is not an obstacle) with the most markers, on the same rule.
-// Mass is exact (the marker keeps its area), the material moves by less than two cells, and a
-// larger void fills from its rim over the next steps. Not in a periodic box (the flood fill
+// the cell of the second ring with the most markers (the four diagonal cells and the four two
+// cells away, each reached through a neighbour that held markers and is not an obstacle;
+// ndam::void_fill_moves). Mass is exact (the marker keeps its area), the material moves by
+// about a cell (at most about two from the second ring), and a larger void fills from its rim
+// over the next steps. Not in a periodic box (the flood fill
 // does not wrap). Every rank has the counts of the whole box, so every rank finds the same
 // moves: the same on any number of ranks and across a restart.
 long long NdamSolver::fill_marker_voids(MarkerSet& m) const {
@@ -138,18 +139,19 @@ long long NdamSolver::fill_marker_voids(MarkerSet& m) const {
   return static_cast<long long>(moves.size());
 }
 
-// Over the opening of a 1D-to-2D interface lies the atmosphere above the 1D layer (the 2D side's
-// boundary faces there are closed only because no material crosses them), so an Empty region
-// that reaches the left side above the opening is open, not a hole: the air between the
-// incoming layer and the face of a deposit that a shock has brought to the interface. Under a
+// Over a 1D-to-2D interface lies the atmosphere above the 1D layer (the 2D side's boundary faces
+// there are closed only because no material crosses them), so an Empty region that reaches the
+// left side above the 1D layer's depth is open, not a hole: the air between the incoming layer
+// and the face of a deposit that a shock has brought to the interface. This cannot tell a
+// sampling void in a deposit piled against the interface above the layer from that air (it is
+// left unfilled there; the static layout is outside its range once a shock arrives). Under a
 // silo gate's lip the side is a wall.
 VoidSides NdamSolver::void_sides() const {
   VoidSides s;
   if (cfg_.outflow_right) s.right_from = 0;
-  if (cfg_.inflow && inflow_mass_) {
-    const double rows = std::ceil(std::max(0.0, inflow_now_[0]) / cfg_.grid.dz() - 1e-9);
-    s.left_from = static_cast<int>(std::min<double>(rows, cfg_.grid.nz));
-  }
+  if (cfg_.inflow && inflow_mass_)  // the 1D layer's depth at x_IF (not the step's opening,
+    // which the mass sets within 1.5 times it: the same rows during a step and after it)
+    s.left_from = first_row_above(cfg_.inflow(t_)[0], cfg_.grid.dz(), cfg_.grid.nz);
   return s;
 }
 

@@ -531,7 +531,7 @@ void NdamSolver::report(nlohmann::json& s) const {
     s["ndam"]["marker_void_fills"] = {
         {"markers", stats_.marker_void_fills},
         {"steps", stats_.marker_void_steps},
-        {"note", "markers moved into enclosed voids of the sampling, each by less than two cells "
+        {"note", "markers moved into enclosed voids of the sampling, each by about a cell (at most about two) "
                  "(docs/numerics.md, 'Voids of the marker sampling')"}};
     if (inflow_mass_) s["ndam"]["inflow_pending_area"] = inflow_pending();
   }

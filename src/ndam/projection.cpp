@@ -143,8 +143,11 @@ bool NdamSolver::rotational_cell(int i, int k) const {
 // from step to step, amplifies once the step is stiff, s = nu_eff dt / h^2 >> 1
 // (h = min(dx, dz)). So chi rolls off with r = s / c (c = kRotationalStiffness = 2); where
 // s < c it stays near 2 (at s = 0.23, the thin front of Setup II at 1.25 mm, 1.97):
-//  - in the interior and next to NaSt2D's surface (Dirichlet Surface cells): chi = 1 + 1 / (1 +
-//    r^2), i.e. 1 where s >> c, a Uzawa step of nu_eff where the full step's 2 nu_eff overshoots.
+//  - next to NaSt2D's surface (Dirichlet Surface cells) chi = 1 + 1 / (1 + r^2), i.e. 1 where
+//    s >> c, a Uzawa step of nu_eff where the full step's 2 nu_eff overshoots; in the interior
+//    the same with r scaled by the contrast of nu_eff over the cell and its four neighbours,
+//    1 - nu_min / nu_max, so that chi = 2 stays where nu_eff is uniform (a Newtonian fluid: a
+//    nu = 1e3 m^2/s cavity settles in 40 steps with chi = 2, slower with chi = 1; numerics.md).
 //    Next to the surface (2026-12-04): in a resting pile (nu_eff 20-100 m^2/s, s ~ 1e3) chi = 2
 //    let a flag change at the toe start a pressure oscillation that woke the whole deposit for
 //    0.1 s (a column collapse, a = 1, phi = 35, delta = 30 deg, 5 mm: rms speed 3.8 -> 21 mm/s
@@ -157,7 +160,8 @@ bool NdamSolver::rotational_cell(int i, int k) const {
 //    toe, where nu_eff is orders of magnitude below the plug's on either side; with chi = 2
 //    the band's cells started a row-by-row pressure oscillation at 0.546 s (u 7 mm/s -> 20-60
 //    mm/s in 3 steps, no flag change) and the pile woke five times to 0.67 s (rms 28.5 mm/s
-//    against its creep bound of 10.8 mm/s); rolled off it rests at 4-6.5 mm/s.
+//    against its creep bound of 10.8 mm/s); rolled off it rests at 4-6.5 mm/s (across the
+//    band nu_min / nu_max is far below 1, so the contrast leaves r nearly as it is).
 //  - next to the ghost-fluid surface: chi = 2 / (1 + r^2), so chi s -> 2 c^2 / s vanishes where
 //    s >> c (the standard incremental update). Measured on Setup II with nu = 1 m^2/s at 5 mm
 //    (s up to 140), the fastest cell to 0.3 s with outputs every 0.02 / 0.025 / 0.05 s:
@@ -169,14 +173,21 @@ double NdamSolver::rotational_weight(int i, int k, double dt) const {
   if (cfg_.momentum != Momentum::Implicit || !rotational_cell(i, k)) return 0.0;
   constexpr double kRot = 2.0, kRotationalStiffness = 2.0;
   const double h = std::min(cfg_.grid.dx(), cfg_.grid.dz());
-  const double r = nu_rot_(i, k) * dt / (h * h) / kRotationalStiffness;
-  const double roll = 1.0 / (1.0 + r * r);
+  double r = nu_rot_(i, k) * dt / (h * h) / kRotationalStiffness;
   const int gi = mac_.slab.i0 + i;
-  if (mac_.ghost_surface &&
+  const bool near_surface =
       any_flag(gi - 1, gi + 1, k - 1, k + 1,
-               [](CellFlag f) { return f == CellFlag::Surface || f == CellFlag::Empty; }))
-    return kRot * roll;
-  return 1.0 + roll;
+               [](CellFlag f) { return f == CellFlag::Surface || f == CellFlag::Empty; });
+  if (near_surface && mac_.ghost_surface) return kRot / (1.0 + r * r);
+  if (!near_surface) {  // the interior: the full step is exact where nu_eff is uniform
+    double lo = nu_rot_(i, k), hi = lo;
+    for (const double n : {nu_rot_(i - 1, k), nu_rot_(i + 1, k), nu_rot_(i, k - 1), nu_rot_(i, k + 1)}) {
+      lo = std::min(lo, n);
+      hi = std::max(hi, n);
+    }
+    r *= hi > 0.0 ? 1.0 - lo / hi : 0.0;
+  }
+  return 1.0 + 1.0 / (1.0 + r * r);
 }
 
 double NdamSolver::divergence(const Field& u, const Field& w, int i, int k) const {

@@ -682,6 +682,20 @@ TEST(NdamDeposit, SetupIICornerBlockRestsWithinTheCreepBound) {
   }
 }
 
+namespace {
+// The tester's a = 1 column (0.1 x 0.1 m, 5 mm, 100 x 30 cells in a 0.15 m box, m_c = 100 s/m)
+// of friction angles phi / delta, at the scene's CFL 0.5 and at CFL 1 (donor-cell convection):
+// at rest from 0.6 s within the creep bound u_c = 1/m_c + H/m_y (H its top at 0.6 s).
+void expect_square_column_rests(double phi, double delta) {
+  for (const double cfl : {0.0, 1.0}) {
+    SCOPED_TRACE(cfl > 0.0 ? "CFL 1" : "the scene's CFL 0.5");
+    const auto a = column_collapse(100.0, 100, 30, Column{phi, delta, 0.1, 0.15, cfl});
+    ASSERT_EQ(a.t.size(), 30u);
+    expect_collapse_rests(a, 1.0 / 100.0 + a.top[11] / 100.0, 0.005, 0.005);  // top at 0.6 s
+  }
+}
+}  // namespace
+
 // The independent tester's column (issue 11 item 2): a = 1 (0.1 x 0.1 m), phi = 35, delta = 30
 // deg, 5 mm (100 x 30 cells in a 0.15 m box). It stops spreading by 0.45 s; at 0.65-0.70 s,
 // with the rotational pressure update at its full weight chi = 2 next to the surface, a flag
@@ -695,12 +709,7 @@ TEST(NdamDeposit, SetupIICornerBlockRestsWithinTheCreepBound) {
 // chi; the limit's Courant number is now at most 0.5 whatever CFL is (NdamSolver::stable_dt),
 // and the pile rests at 3.3-4.1 mm/s. About 10 s.
 TEST(NdamDeposit, SquareColumnRestsThroughTheFlagChangesAtItsToe) {
-  for (const double cfl : {0.0, 1.0}) {
-    SCOPED_TRACE(cfl > 0.0 ? "CFL 1" : "the scene's CFL 0.5");
-    const auto a = column_collapse(100.0, 100, 30, Column{35.0, 30.0, 0.1, 0.15, cfl});
-    ASSERT_EQ(a.t.size(), 30u);
-    expect_collapse_rests(a, 1.0 / 100.0 + a.top[11] / 100.0, 0.005, 0.005);  // top at 0.6 s
-  }
+  expect_square_column_rests(35.0, 30.0);
 }
 
 // A steeper-friction column (issue 11 item 2; the independent tester's a = 1, phi = 40,
@@ -714,12 +723,7 @@ TEST(NdamDeposit, SquareColumnRestsThroughTheFlagChangesAtItsToe) {
 // rms speed below u_c = 1/m_c + H/m_y at every output from 0.6 s, the front and the top within
 // the creep plus a cell, at the scene's CFL 0.5 and at CFL 1. About 10 s.
 TEST(NdamDeposit, SteepFrictionPileRestsThroughItsShearBand) {
-  for (const double cfl : {0.0, 1.0}) {
-    SCOPED_TRACE(cfl > 0.0 ? "CFL 1" : "the scene's CFL 0.5");
-    const auto a = column_collapse(100.0, 100, 30, Column{40.0, 20.0, 0.1, 0.15, cfl});
-    ASSERT_EQ(a.t.size(), 30u);
-    expect_collapse_rests(a, 1.0 / 100.0 + a.top[11] / 100.0, 0.005, 0.005);  // top at 0.6 s
-  }
+  expect_square_column_rests(40.0, 20.0);
 }
 
 namespace {

@@ -709,6 +709,13 @@ TEST(MarkersFlags, EnclosedVoidsAreHolesOverhangsAreNot) {
   EXPECT_TRUE(enclosed_voids(flags(toe), 6, 7, VoidSides{3, VoidSides::kClosed}).empty());
   EXPECT_EQ(enclosed_voids(flags(toe), 6, 7, VoidSides{4, VoidSides::kClosed}).size(), 5u);
   EXPECT_EQ(enclosed_voids(flags(toe), 6, 7, VoidSides{VoidSides::kClosed, 0}).size(), 5u);
+  // the first open row above a layer of depth h (rows of dz = 0.005 m): its bottom at or above h
+  EXPECT_EQ(first_row_above(0.0, 0.005, 7), 0);      // no layer: every row open
+  EXPECT_EQ(first_row_above(0.004, 0.005, 7), 1);    // inside row 0
+  EXPECT_EQ(first_row_above(0.010, 0.005, 7), 2);    // on the bottom of row 2
+  EXPECT_EQ(first_row_above(0.010 + 1e-14, 0.005, 7), 2);  // a round-off above it (< 1e-9 rows)
+  EXPECT_EQ(first_row_above(0.0101, 0.005, 7), 3);
+  EXPECT_EQ(first_row_above(1.0, 0.005, 7), 7);      // deeper than the box: closed
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -924,8 +931,44 @@ TEST(MarkersFlags, VoidTakesItsMarkerFromTheNearestRingThatCanGive) {
   mv = void_fill_moves(c, blocked, nx, nz, VoidSides{});
   ASSERT_EQ(mv.size(), 1u);
   EXPECT_EQ(mv[0], (Move{1, 1, 2, 2}));
+  // ... nor through two Obstacles beside a diagonal; the fullest reachable cell two below
+  blocked[at(1, 2)] = CellFlag::Obstacle;
+  c[at(2, 0)] = 5.0;
+  blocked[at(2, 1)] = CellFlag::Obstacle;  // (1, 1) now reached only through obstacles
+  mv = void_fill_moves(c, blocked, nx, nz, VoidSides{});
+  EXPECT_TRUE(mv.empty());  // and (2, 0) only through the obstacle (2, 1): nothing
+  blocked[at(2, 1)] = CellFlag::Fluid;  // through (2, 1): (2, 0) with 5 before (1, 1) with 3
+  mv = void_fill_moves(c, blocked, nx, nz, VoidSides{});
+  ASSERT_EQ(mv.size(), 1u);
+  EXPECT_EQ(mv[0], (Move{2, 0, 2, 2}));
   // single markers everywhere: no cell can give, the void is left (nothing made)
   EXPECT_TRUE(void_fill_moves(box(1.0), flags, nx, nz, VoidSides{}).empty());
+  // a 3 x 3 void in a 7 x 7 box of 4-marker cells fills from its rim: its eight rim cells take
+  // a marker each from a neighbour, its centre none in this step (no marker jumps across the
+  // void), and the markers are only moved (the total is kept)
+  {
+    const int n7 = 7;
+    const auto at7 = [](int i, int k) { return static_cast<std::size_t>(i * 7 + k); };
+    std::vector<double> c7(49, 4.0);
+    std::vector<CellFlag> f7(49, CellFlag::Fluid);
+    for (int i = 2; i <= 4; ++i)
+      for (int k = 2; k <= 4; ++k) {
+        c7[at7(i, k)] = 0.0;
+        f7[at7(i, k)] = CellFlag::Empty;
+      }
+    const auto m7 = void_fill_moves(c7, f7, n7, n7, VoidSides{});
+    EXPECT_EQ(m7.size(), 8u);
+    std::vector<double> after = c7;
+    for (const auto& m : m7) {
+      EXPECT_FALSE(m[2] == 3 && m[3] == 3) << "the centre filled across the void";
+      EXPECT_EQ(std::abs(m[0] - m[2]) + std::abs(m[1] - m[3]), 1) << "a rim cell from beyond";
+      after[at7(m[0], m[1])] -= 1.0;
+      after[at7(m[2], m[3])] += 1.0;
+    }
+    double total = 0.0;
+    for (const double v : after) total += v;
+    EXPECT_EQ(total, 40.0 * 4.0);
+  }
   // a void that reaches an open side is not a void: an Empty column 2 open at the top
   auto open = flags;
   for (int k = 2; k < nz; ++k) open[at(2, k)] = CellFlag::Empty;

@@ -258,10 +258,14 @@ std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flag
 /// `counts` markers per cell (whole box, gi * nz + k; `flags` its cell flags): each void cell,
 /// in the order enclosed_voids lists them, takes one marker from the 4-neighbour with the most
 /// markers that keeps at least one (ties: below, left, right, above), else from the cell of the
-/// second ring with the most (the diagonals through a cell that is not an Obstacle, lower
-/// before upper, left before right; then below, left, right and above two cells away, through
-/// a middle cell that is not an Obstacle); counts are updated move by move. A void with no such
+/// second ring with the most, reached through a 4-neighbour that holds markers and is not an
+/// Obstacle (ties: the diagonals, lower before upper, left before right, then below, left,
+/// right and above two cells away), so a void ringed by single markers takes from beyond them
+/// and a larger void fills from its rim; counts are updated move by move. A void with no such
 /// donor is left. Returns {donor gi, donor k, target gi, target k} (MarkerSet::relocate).
+/// The depth of a layer entering through a side as a first open row: the rows k >= the result
+/// have their bottom k dz at or above `depth` (to 1e-9 of a row), at most nz.
+int first_row_above(double depth, double dz, int nz);
 std::vector<std::array<int, 4>> void_fill_moves(std::vector<double> counts,
                                                 const std::vector<CellFlag>& flags, int nx,
                                                 int nz, VoidSides sides);

@@ -147,7 +147,7 @@ class NdamSolver final : public core::Stepper {
     return mac_.flags[static_cast<std::size_t>(gi * cfg_.grid.nz + k)];
   }
   /// The open sides of the box for ndam::enclosed_voids (the holes of the material): an
-  /// outflow's every row, and the rows above the opening of a 1D-to-2D interface, where the
+  /// outflow's every row, and the rows above the 1D layer at a 1D-to-2D interface, where the
   /// atmosphere lies over the 1D layer; a wall, the gate and the rows of an opening are closed.
   VoidSides void_sides() const;
   /// Largest nu_eff of the current state [m^2/s].
