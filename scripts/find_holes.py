@@ -18,6 +18,7 @@ last column of the last 2D mesh (the wall column in a chute ending at a wall).
 Uses h5dump/h5ls (hdf5-tools), no Python HDF5 module.
 Usage: scripts/find_holes.py OUTPUT_DIR [--quiet]
 Exit status 1 if any hole was found, else 0."""
+import bisect
 import json
 import re
 import subprocess
@@ -104,11 +105,9 @@ def main():
             if any(v == ONE_D for v in flag[0]):  # channel-wide mesh: the DAM's depth per column
                 xd, hd = dataset(f, f"/{g}/dam/x_nodes"), dataset(f, f"/{g}/dam/h")
                 hd = hd[0] if isinstance(hd[0], list) else hd
-                depth_1d = []
-                for i in range(len(x) - 1):
-                    xc = 0.5 * (x[i] + x[i + 1])
-                    c = max(0, min(len(hd) - 1, next((n for n in range(len(xd) - 1) if xd[n + 1] > xc), len(hd) - 1)))
-                    depth_1d.append(hd[c])
+                last = len(hd) - 1  # the DAM cell holding each 2D column's centre
+                depth_1d = [hd[max(0, min(last, bisect.bisect_right(xd, 0.5 * (x[i] + x[i + 1])) - 1))]
+                            for i in range(len(x) - 1)]
             open_right = j + 1 < len(meshes) or outflow_end
             for k, i in holes(flag, open_right=open_right, z_nodes=z, depth_1d=depth_1d):
                 found.append(f"{m}: x = {0.5 * (x[i] + x[i + 1]):.4f} m, z = {0.5 * (z[k] + z[k + 1]):.4f} m")
