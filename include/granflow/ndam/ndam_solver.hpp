@@ -152,6 +152,11 @@ class NdamSolver final : public core::Stepper {
   VoidSides void_sides() const;
   /// Largest nu_eff of the current state [m^2/s].
   double max_nu_eff() const;
+  /// The normal stress N = p_b + 2 nu_eff du/dx (eq. 13, divided by the density [m^2/s^2]) that
+  /// the Coulomb law of the bed used in the last friction update, at the bed faces
+  /// u(i, 0), i = 0 .. nx_local - 1, of this rank's slab (0 where no material is above the face
+  /// or the bed is not Coulomb).
+  std::vector<double> bed_normal_stress() const;
   /// The fastest long surface wave of the current state: sqrt(g cos(zeta) h) [m/s] of the
   /// deepest column (free surface only; 0 without material), that column's global index and h.
   struct SurfaceWave {
@@ -240,6 +245,10 @@ class NdamSolver final : public core::Stepper {
   /// depth clamped into [k dz, (k + 1) dz] for a Surface cell whose top side is empty; -1 for
   /// every other cell (or before the column depths exist).
   double surface_height(int gi, int k) const;
+  /// The pressure that sets the bed's normal stress under cell (i, k): p, or for a Surface cell
+  /// under material (its top side not empty, the cell above a material cell) the hydrostatic
+  /// pressure of the column's material above its centre, if that is larger.
+  double loaded_pressure(int i, int k, double p) const;
   void apply_free_surface(Field& u, Field& w) const;
   void advect_markers(double dt);
   /// Flags of markers m and every column's material depth [m] (marker count times marker
@@ -332,7 +341,7 @@ class NdamSolver final : public core::Stepper {
   // boundaries: the Coulomb ghosts u(i,-1) = a u(i,0) + b (local columns + G) and
   // w(nx, k) = a w(nx-1, k) + b; q = dz tan(delta) N / nu_b of each face (dx ... at the wall;
   // 0: no friction there) and whether its ghost is clamped to sticking (update_friction)
-  std::vector<double> bed_a_, bed_b_, wall_a_, wall_b_, bed_q_, wall_q_;
+  std::vector<double> bed_a_, bed_b_, wall_a_, wall_b_, bed_q_, wall_q_, bed_n_;
   std::vector<std::uint8_t> bed_stuck_, wall_stuck_;
   // The nonlinear pressure system keeps the no-slip clamps of its first evaluation (q = p^n,
   // the lagged step) in its later ones: a clamp decided anew at each trial pressure q makes
