@@ -232,9 +232,10 @@ void NdamSolver::surface_pressure(Field& target) const {
 // pressure of its column's material above its centre, g cos(zeta) (h - z_c) with h the
 // column's marker depth, where that is larger, so the bed carries the column's weight. The
 // projection's Dirichlet value and the cell's strength are unchanged: the strength from this
-// pressure too (tau_y of eqs. 4-6) was measured and not kept (the wall deposit of the pressure
-// Newton test and the coupled Setup II moved out of their bounds). Cells with an empty top keep
-// theirs: their p already holds the hydrostatic increment from the surface inside them.
+// pressure too (tau_y of eqs. 4-6) was measured and not kept (the full weight overstates the
+// mean stress of a cell at a free face, about half of it, and held the 10 mm Setup II deposit
+// so steep that it reached the top of its box). Cells with an empty top keep theirs: their p
+// already holds the hydrostatic increment from the surface inside them.
 double NdamSolver::loaded_pressure(int i, int k, double p) const {
   const int gi = mac_.slab.i0 + i;
   if (col_h_.empty() || k + 1 >= cfg_.grid.nz || mac_.gflag(gi, k) != CellFlag::Surface ||
