@@ -241,20 +241,22 @@ double NdamSolver::loaded_pressure(int i, int k, double p) const {
   if (col_h_.empty() || k + 1 >= cfg_.grid.nz || mac_.gflag(gi, k) != CellFlag::Surface ||
       !mac_.fluid(gi, k + 1))
     return p;
+  const double zc = (k + 0.5) * cfg_.grid.dz();
+  return std::max(p, std::abs(phys_.gz) * (column_depth(gi) - zc));
+}
+
+double NdamSolver::column_depth(int gi) const {
   const int nx = cfg_.grid.nx;
   const int gw = cfg_.periodic_x() ? (gi % nx + nx) % nx : gi;
-  const double zc = (k + 0.5) * cfg_.grid.dz();
-  return std::max(p, std::abs(phys_.gz) * (col_h_[static_cast<std::size_t>(gw)] - zc));
+  return col_h_[static_cast<std::size_t>(gw)];
 }
 
 double NdamSolver::surface_height(int gi, int k) const {
   if (col_h_.empty() || mac_.gflag(gi, k) != CellFlag::Surface ||
       !(mac_.mask(gi, k) & empty_side::Top))
     return -1.0;
-  const int nx = cfg_.grid.nx;
-  const int gw = cfg_.periodic_x() ? (gi % nx + nx) % nx : gi;
   const double dz = cfg_.grid.dz();
-  return std::clamp(col_h_[static_cast<std::size_t>(gw)], k * dz, (k + 1) * dz);
+  return std::clamp(column_depth(gi), k * dz, (k + 1) * dz);
 }
 
 // Velocity conditions of the free surface on the columns [-1, nx_local] of (u, w):

@@ -249,6 +249,8 @@ class NdamSolver final : public core::Stepper {
   /// under material (its top side not empty, the cell above a material cell) the hydrostatic
   /// pressure of the column's material above its centre, if that is larger.
   double loaded_pressure(int i, int k, double p) const;
+  /// The marker depth of global column gi (wrapped when periodic); col_h_ must exist.
+  double column_depth(int gi) const;
   void apply_free_surface(Field& u, Field& w) const;
   void advect_markers(double dt);
   /// Flags of markers m and every column's material depth [m] (marker count times marker
