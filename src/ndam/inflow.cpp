@@ -44,6 +44,15 @@ constexpr double kInflowMinDepth = 1e-4;  // [m]
 // A first interior column whose mean velocity is below this has no profile shape to copy
 // (eq. 25): it is at rest or empty, and the opening takes the uniform profile.
 constexpr double kShapeMinMean = 1e-12;  // [m/s]
+// The largest ratio of an inflow face to the opening's mean velocity that the copied shape may
+// give (eq. 25). Chute profiles stay well below it: a plug 1, Bagnold's 5/3, a Newtonian
+// half-parabola 3/2. A disturbed first column (a row still fast while the rows beside it have
+// stopped or turned back) has a small positive mean and one row far above it, and the copy then
+// scaled that row by um / mean: faces of +195 m/s from a 1.27 m/s inflow in the cascade of
+// docs/validation.md ("Beyond the impact"). Such a shape is blended towards the uniform one,
+// s = 1 + theta (s_copy - 1) with the largest theta in [0, 1] that keeps s <= kShapeMax; both
+// shapes have the mean 1 over the opening, so the blend lets in the same mass.
+constexpr double kShapeMax = 2.0;
 // The DAM's ledger term of a step is dt times its end flux plus an averaging term of the
 // staggered scheme (DamSolver::PendingStep::out_flux), O(dx^2 h_x) whatever dt and alternating in
 // sign with the grid from step to step (with a mean of 1-2 % of the step's mass in steady Setup
@@ -123,15 +132,18 @@ double NdamSolver::inflow_face(int k) const {
   // enter only through rows of positive flux (MarkerSet::inject_rows), so a negative row's share
   // was booked as mass let in that no marker carried (the static lab chute, whose shock reaches
   // the 1D -> 2D interface at 1.8 m near 2.1 s: 9.3e-4 m^2 made).
-  double q = 0.0;
+  double q = 0.0, top = 0.0;
   for (int kk = 0; kk < cfg_.grid.nz; ++kk) {
     const double o = std::clamp((h - kk * dz) / dz, 0.0, 1.0);
     if (o <= 0.0) break;
     q += o * dz * std::max(u_(0, kk), 0.0);
+    top = std::max(top, u_(0, kk));
   }
   const double mean = q / h;
   if (!(mean > kShapeMinMean)) return um;  // no shape yet (or none flowing in): uniform
-  return um * std::max(u_(0, k), 0.0) / mean;
+  if (top <= kShapeMax * mean) return um * std::max(u_(0, k), 0.0) / mean;
+  const double theta = (kShapeMax - 1.0) / (top / mean - 1.0);  // the bounded blend (kShapeMax)
+  return um * (1.0 + theta * (std::max(u_(0, k), 0.0) / mean - 1.0));
 }
 
 // Lagged gradient continued through an open outflow (NdamConfig::outflow_extrapolate): the
@@ -178,6 +190,19 @@ void NdamSolver::inject_markers(double dt, MarkerSet& markers) const {
     if (open > 0.0) uf[static_cast<std::size_t>(k)] = u_new_(-1, k);  // material velocity of the open part
   }
   markers.inject(dt, inflow_now_[0], uf);
+}
+
+std::vector<double> NdamSolver::inflow_faces() const {
+  std::vector<double> f(static_cast<std::size_t>(cfg_.grid.nz), 0.0);
+  int owner = 0;
+  if (mac_.slab.i0 == 0 && !cfg_.periodic_x()) {
+    for (int k = 0; k < cfg_.grid.nz; ++k) f[static_cast<std::size_t>(k)] = u_(-1, k);
+    MPI_Comm_rank(comm_, &owner);
+  }
+  int root = 0;
+  MPI_Allreduce(&owner, &root, 1, MPI_INT, MPI_MAX, comm_);
+  MPI_Bcast(f.data(), cfg_.grid.nz, MPI_DOUBLE, root, comm_);
+  return f;
 }
 
 double NdamSolver::inflow_pending() const {

@@ -362,6 +362,67 @@ TEST(NdamChute, GateInflowTransferAndInterfaceApi) {
   }
 }
 
+// The 1D-to-2D interface copies the shape of the first interior column (eq. 25), scaled to the
+// 1D side's u_mean (eq. 24). The copy must let in exactly h u_mean whatever the shape, and a
+// disturbed first column must not make an inflow face many times u_mean: a column whose top
+// rows have turned back while its bottom row still runs has a small positive mean, and the
+// unbounded copy scaled that row by u_mean / mean (+195 m/s faces from a 1.27 m/s inflow in
+// the coupled Setup II cascade of docs/validation.md). Checked on the gate chute at 0.1 s
+// (10 mm cells, an opening of 4 rows):
+//  - the undisturbed column's shape (its largest face at most 2 times its mean, asserted) is
+//    copied as it is: every face u_mean u(0, k) / mean to round-off (1e-12 relative);
+//  - the disturbed column (bottom row 1 m/s, the three rows above -0.5 m/s: an unbounded copy
+//    gives 4 u_mean in the bottom row) gives faces in [0, 2 u_mean] (the bound kShapeMax = 2,
+//    above a plug's 1, Bagnold's 5/3 and a Newtonian half-parabola's 3/2);
+//  - in both the opening's flux sum_k open_k dz u_k is h u_mean to 1e-12 relative (the mass
+//    that the DAM let out enters, exactly as before the bound).
+TEST(NdamChute, InterfaceInflowShapeIsCopiedBoundedAndExact) {
+  const FsCase c = gate_chute();
+  auto s = make_fs(c);
+  run_to(*s, 0.1, 0.002);
+  const double h = 0.04, um = 1.27, dz = c.lz / c.nz;
+  auto faces_of = [&](const ndam::NdamState& st) {
+    auto b = make_fs(c, MPI_COMM_WORLD, &st);
+    b->set_inflow([&](double) { return std::array<double, 2>{h, um}; },
+                  ndam::InflowShape::CopyInterior, ndam::InflowPressure::Dirichlet, 1.0);
+    return b->inflow_faces();
+  };
+  auto flux = [&](const std::vector<double>& f) {
+    double q = 0.0;
+    for (int k = 0; k < c.nz; ++k)
+      q += std::clamp((h - k * dz) / dz, 0.0, 1.0) * dz * f[static_cast<std::size_t>(k)];
+    return q;
+  };
+  ndam::NdamState st = s->export_state();
+  const int rows = 4;  // h / dz
+  double mean = 0.0, top = 0.0;
+  for (int k = 0; k < rows; ++k) {
+    const double u0 = st.u[static_cast<std::size_t>(k)];  // right face of cell (0, k)
+    ASSERT_GT(u0, 0.0) << "k = " << k;
+    mean += u0 / rows;
+    top = std::max(top, u0);
+  }
+  ASSERT_LE(top, 2.0 * mean);  // an ordinary chute profile: the copy is not bounded
+  const auto f = faces_of(st);
+  for (int k = 0; k < rows; ++k)
+    EXPECT_NEAR(f[static_cast<std::size_t>(k)], um * st.u[static_cast<std::size_t>(k)] / mean,
+                1e-12 * um)
+        << "k = " << k;
+  EXPECT_NEAR(flux(f), h * um, 1e-12 * h * um);
+
+  st.u[0] = 1.0;
+  for (int k = 1; k < rows; ++k) st.u[static_cast<std::size_t>(k)] = -0.5;
+  const auto g = faces_of(st);
+  std::printf("disturbed first column: inflow faces %.3f %.3f %.3f %.3f m/s (u_mean %.2f)\n",
+              g[0], g[1], g[2], g[3], um);
+  for (int k = 0; k < rows; ++k) {
+    EXPECT_GE(g[static_cast<std::size_t>(k)], 0.0) << "k = " << k;
+    EXPECT_LE(g[static_cast<std::size_t>(k)], 2.0 * um * (1.0 + 1e-12)) << "k = " << k;
+  }
+  for (int k = rows; k < c.nz; ++k) EXPECT_EQ(g[static_cast<std::size_t>(k)], 0.0) << "k = " << k;
+  EXPECT_NEAR(flux(g), h * um, 1e-12 * h * um);
+}
+
 // A 2D subdomain that does not start at x = 0 (issue 11 item 3 asked whether the end-wall
 // Coulomb friction and its pressure act there): the grid origin x0 only places the box along the
 // channel (profile, fields and column_state coordinates); the dynamics, including the Coulomb

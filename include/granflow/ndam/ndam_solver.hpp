@@ -194,6 +194,10 @@ class NdamSolver final : public core::Stepper {
   /// the fractional marker accumulators of the gate. Injected area + this = the total of
   /// the `mass` provider (to round-off) when one is set.
   double inflow_pending() const;
+  /// The inflow faces u(x0, z) of the current state, row k = 0 .. nz - 1 (0 above the
+  /// opening): the gate's or the 1D-to-2D interface's velocity of each row, the eq. (25) shape
+  /// where it is copied (collective; every rank gets the values of the owner of column 0).
+  std::vector<double> inflow_faces() const;
   struct Transfer {
     double in = 0.0, out = 0.0;  ///< marker area [m^2] that entered at x0 / left at x1
   };
