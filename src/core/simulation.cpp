@@ -719,7 +719,21 @@ int Simulation::advance(const io::Checkpoint& ck) {
     track_speed();
     // between accepted steps: the model may change its layout (the domain manager)
     const auto t3 = Clock::now();
-    model_->adapt();
+    try {
+      model_->adapt();
+    } catch (const params::InputError&) {
+      throw;
+    } catch (const std::exception& e) {
+      // a layout change that failed (a conversion fault): the state is not to be trusted, so
+      // nothing of it is written; the outputs and checkpoint of the last output time stay
+      std::ostringstream os;
+      os << "layout change after the step to t = " << model_->time() << " s failed: " << e.what();
+      write_summary("failed", os.str(), kRuntimeError);
+      if (io_rank())
+        std::cerr << "\ngranflow: error: " << os.str()
+                  << "; the last good output and checkpoint are kept in " << rc_.directory << "\n";
+      return kRuntimeError;
+    }
     phase_seconds_["layout"] += std::chrono::duration<double>(Clock::now() - t3).count();
     sample_wall();
     if (model_->time() >= next_output - eps_t) {

@@ -315,6 +315,12 @@ add_test(NAME long.no_holes_in_shipped_scenes
                  ${_in}/lab_chute_dynamic.xml)
 set_tests_properties(long.no_holes_in_shipped_scenes PROPERTIES LABELS "long" TIMEOUT 14400)
 
+# A Dynamic layout started from the a priori layout (interfaces on the DAM's cells, not on the
+# slots) conserves mass through its moves (a hostile-user run: 2-5 % made before 2026-12-05).
+add_test(NAME cli.dynamic_from_a_priori_conserves_mass
+         COMMAND /usr/bin/python3 ${_cli}/dynamic_apriori_mass.py $<TARGET_FILE:granflow>
+                 ${CMAKE_CURRENT_BINARY_DIR}/dynamic_apriori ${PROJECT_SOURCE_DIR}/inputs)
+set_tests_properties(cli.dynamic_from_a_priori_conserves_mass PROPERTIES LABELS "cli" TIMEOUT 300)
 # Restarts through the app continue bit for bit for the 2D, coupled and dynamic models (the DAM's
 # is cli.restart_reproduces_straight_run).
 add_test(NAME cli.restart_exact_2d_coupled_dynamic
