@@ -36,6 +36,11 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
   if (std::filesystem::is_directory(file, ec))
     throw params::InputError("parameter '" + ppath + "' = " + file +
                              ": is a directory (allowed: a readable CSV file with columns t,h,u)");
+  // a device or a pipe (/dev/zero, a FIFO) would be read without end: only regular files
+  if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
+    throw params::InputError("parameter '" + ppath + "' = " + file +
+                             ": not a regular file (a device, pipe or socket; allowed: a "
+                             "readable CSV file with columns t,h,u)");
   std::ifstream in(file);
   if (!in)
     throw params::InputError("parameter '" + ppath + "' = " + file +

@@ -676,6 +676,15 @@ XmlDocument parse_xml(const std::string& file) {
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec))
     throw InputError("scene file '" + file + "' is a directory; allowed: a ParameterList XML file");
+  // A device or a pipe (/dev/zero, a FIFO) would be read without end: only regular files, of a
+  // size a scene can have (a hostile-user run: /dev/zero grew the process by 150 MB a second).
+  constexpr std::uintmax_t kMaxSceneBytes = 64u << 20;
+  if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec))
+    throw InputError("scene file '" + file + "' is not a regular file (a device, pipe or "
+                     "socket); allowed: a ParameterList XML file");
+  if (const auto n = std::filesystem::file_size(file, ec); !ec && n > kMaxSceneBytes)
+    throw InputError("scene file '" + file + "' has " + std::to_string(n) +
+                     " bytes; allowed: a ParameterList XML file of at most 64 MiB");
   std::ifstream in(file, std::ios::binary);
   if (!in) throw InputError("cannot open scene file '" + file + "' (no such file or not readable)");
   std::ostringstream buf;

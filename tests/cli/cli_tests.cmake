@@ -62,6 +62,10 @@ granflow_cli_test(dynamic_min_length_above_channel 2 "Minimum length' = 2: must 
                   ${_cli}/bad_dynamic_min_length.xml)
 granflow_cli_test(dynamic_interface_off_node 0 "valid scene.*note: parameter .granflow->Decomposition->Interfaces. = 0.2000001 lies between the nodes.*multiples of 0.005 m.*starts from the nearest, 0.2 m"
                   --check ${_cli}/note_dynamic_off_node.xml)
+# a device or a pipe is read without end: refused, as scene and as series (a hostile-user run)
+granflow_cli_test(scene_is_a_device 2 "scene file '/dev/zero' is not a regular file" --check /dev/zero)
+granflow_cli_test(series_is_a_device 2 "Inflow series file' = /dev/zero: not a regular file"
+                  ${_cli}/bad_series_device.xml)
 granflow_cli_test(dry_depth_above_gate 2 "DAM->Dry depth' = 0.01: cells shallower than it do not move, and the gate's opening is only 0.06 m deep.*allowed: < 0.006 m"
                   --check ${_cli}/bad_dry_depth.xml)
 granflow_cli_test(coupled_ic_in_2d_part 2 "Initial condition->Type' = Block: puts material on \\[0, 0.1\\] m, inside the 2D subdomain"
