@@ -130,9 +130,31 @@ std::uint64_t fnv1a(const std::string& s, std::uint64_t h) {
 }
 }  // namespace
 
-std::vector<std::string> canonical_parameters(const Teuchos::ParameterList& validated) {
+std::vector<std::string> canonical_parameters(const Teuchos::ParameterList& validated,
+                                              const std::string& scene_dir) {
   std::vector<std::string> out;
   walk(validated, "", out);
+  // The inflow series is part of the scene by its content, not only its name (a hostile-user
+  // run restarted a checkpoint after editing the CSV, and the run went on under an inflow
+  // history that contradicted its state).
+  if (validated.isSublist("Channel") && validated.sublist("Channel").isSublist("Left boundary")) {
+    const auto& left = validated.sublist("Channel").sublist("Left boundary");
+    if (left.isType<std::string>("Inflow series file")) {
+      const std::string file = left.get<std::string>("Inflow series file");
+      if (!file.empty()) {
+        const std::string full =
+            (file.front() == '/' || scene_dir.empty()) ? file : scene_dir + "/" + file;
+        std::ifstream in(full, std::ios::binary);
+        std::ostringstream bytes;
+        bytes << in.rdbuf();
+        char buf[32];
+        std::snprintf(buf, sizeof buf, "%016llx",
+                      static_cast<unsigned long long>(fnv1a(bytes.str(), 1469598103934665603ULL)));
+        out.push_back("Channel->Left boundary->Inflow series file content (fnv1a) = " +
+                      std::string(buf));
+      }
+    }
+  }
   std::sort(out.begin(), out.end());
   return out;
 }

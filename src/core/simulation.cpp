@@ -79,8 +79,9 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidOutputParameters(
 
 RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
                                        const Teuchos::ParameterList& out,
-                                       const std::string& /*scene_dir*/) {
+                                       const std::string& scene_dir) {
   RunControl r;
+  r.scene_dir = scene_dir;
   r.end_time = time.get<double>("End time");
   r.max_dt = time.get<double>("Max time step");
   r.min_dt = time.get<double>("Min time step");
@@ -266,7 +267,7 @@ std::string mpi_library() {
 void catch_interrupts() { install(nullptr, nullptr); }
 
 void preflight(const Teuchos::ParameterList& validated, const RunControl& rc) {
-  const auto canonical = canonical_parameters(validated);
+  const auto canonical = canonical_parameters(validated, rc.scene_dir);
   const auto identity = scene_identity(canonical);
   if (!rc.restart_from.empty())
     check_restart(read_restart(rc.restart_from), rc.restart_from, canonical, rc.end_time);
@@ -558,7 +559,7 @@ int Simulation::interrupted(int sig) {
 int Simulation::run() {
   wall0_ = last_progress_ = Clock::now();
   const SignalGuard signals;
-  canonical_ = canonical_parameters(params_);
+  canonical_ = canonical_parameters(params_, rc_.scene_dir);
   identity_ = scene_identity(canonical_);
   restarted_ = !rc_.restart_from.empty();
   io::Checkpoint ck;

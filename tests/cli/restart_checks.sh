@@ -95,4 +95,19 @@ for ((k = 0; k < size; k += step)); do
 done
 echo "single-byte changes: $n2 refused, $n0 in bytes HDF5 does not read"
 [ $n2 -gt 0 ] || fail "no changed byte was detected"
+# 8. The inflow series is part of the scene by its content: the same file name with edited
+#    rows is another scene (a hostile-user run restarted after editing the CSV), the same
+#    content restarts.
+printf 't,h,u\n0,0.06,0.37\n' > series.csv
+series() { scene "$SRC/$1" "$2" -e "s|value=\"restart_[a-z]*\"/>|value=\"$3\"/>|" \
+           -e 's|<Parameter name="Inflow depth" type="double" value="0.06"/>|<Parameter name="Inflow series file" type="string" value="series.csv"/>|' \
+           -e '/<Parameter name="Inflow velocity"/d' "${@:4}"; }
+series restart_first.xml s_first.xml s_first
+expect 0 "completed at t = 0.1 s" s_first.xml
+series restart_second.xml s_same.xml s_same -e "s|restart_first/checkpoint.h5|s_first/checkpoint.h5|"
+expect 0 "completed at t = 0.2 s" s_same.xml
+printf 't,h,u\n0,0.06,0.37\n0.15,0.08,0.5\n' > series.csv
+series restart_second.xml s_edit.xml s_edit -e "s|restart_first/checkpoint.h5|s_first/checkpoint.h5|"
+expect 2 "the checkpoint belongs to a different scene: 'Channel->Left boundary->Inflow series file content' = [0-9a-f]* there, [0-9a-f]* here" --check s_edit.xml
+expect 2 "Inflow series file content' = " s_edit.xml
 echo "restart checks passed"

@@ -20,7 +20,11 @@
 namespace granflow::core {
 
 /// "path (type) = value" lines of a validated list, sorted by path ("Channel->Slope angle").
-std::vector<std::string> canonical_parameters(const Teuchos::ParameterList& validated);
+/// An input file the scene names (Channel->Left boundary->Inflow series file, relative to
+/// `scene_dir`) adds a line "<parameter> content (fnv1a) = <hash of its bytes>": a restart
+/// whose series file was edited is then another scene, as an edited parameter is.
+std::vector<std::string> canonical_parameters(const Teuchos::ParameterList& validated,
+                                              const std::string& scene_dir = "");
 
 /// The parameters that may differ between a run and its restart: labels (Name, Description),
 /// the whole Time and Output lists, and the linear and nonlinear solvers' tolerances,

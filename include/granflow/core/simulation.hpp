@@ -33,6 +33,7 @@ struct RunControl {
   bool checkpoint = true;
   bool progress = true;
   std::string restart_from;
+  std::string scene_dir;  ///< the scene file's directory (relative input file names)
   /// [s] wall.csv / summary.json: the impact peak is the largest load within this time after
   /// the material first reaches the end wall (later the growing deposit's load can exceed it)
   double impact_window = 0.05;
