@@ -370,7 +370,18 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
   }
   if (plan.same_scene) plan.earlier_files = earlier.files;
   have_manifest = have_manifest || plan.same_scene;
-  if (plan.same_scene && restart) return plan;  // continued: the driver cuts back, keeps
+  // A restart continues the directory's history only when its checkpoint is that history's
+  // (it lies in the directory). A restart from elsewhere into a directory that holds another
+  // run of the same scene kept that run's rows up to the checkpoint time, joined to a
+  // continuation of a different trajectory (a hostile-user run): its files start afresh.
+  std::error_code ee;
+  const bool own = restart && !keep.empty() && fs::exists(dir, ee) &&
+                   fs::equivalent(fs::absolute(keep, ee).parent_path(), dir, ee);
+  if (plan.same_scene && own) {  // continued: the driver cuts back, keeps
+    plan.continued = true;
+    return plan;
+  }
+  plan.earlier_files.clear();
   // A fresh run of the same scene, or --overwrite: remove the earlier run's files (the ones
   // its manifest lists and any other granflow output names), never the checkpoint we read.
   std::set<std::string> names(present.begin(), present.end());

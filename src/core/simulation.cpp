@@ -595,7 +595,10 @@ int Simulation::run() {
   if (io_->wall_on) files_.push_back("wall.csv");
   if (rc_.fields) files_.insert(files_.end(), {"fields.h5", "fields.xdmf"});
   if (rc_.checkpoint) files_.push_back("checkpoint.h5");
-  if (restarted_)  // the earlier parts of this run wrote into this directory too
+  int continued = plan.continued ? 1 : 0;  // rank 0 decided
+  MPI_Bcast(&continued, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  continued_ = continued != 0;
+  if (continued_)  // the earlier parts of this run wrote into this directory too
     for (const auto& f : plan.earlier_files)
       if (std::find(files_.begin(), files_.end(), f) == files_.end()) files_.push_back(f);
   if (io_rank())
@@ -645,11 +648,11 @@ int Simulation::advance(const io::Checkpoint& ck) {
     // A restart cuts profiles and fields back to the checkpoint time: a run stopped after its
     // output and before its checkpoint (or interrupted) must not leave rows or snapshots the
     // restart writes again.
-    const double keep = restarted_ ? t0_ : -1.0;
+    const double keep = continued_ ? t0_ : -1.0;
     io_->profiles.open(rc_.directory, keep);
     if (io_->wall_on) io_->wall.open(rc_.directory, keep, rc_.impact_window);
     if (rc_.fields) io_->fields.open(rc_.directory, keep);
-    else if (restarted_) io::truncate_fields(rc_.directory, t0_);
+    else if (continued_) io::truncate_fields(rc_.directory, t0_);
   }
   if (!restarted_) {
     model_->adapt();  // the layout of t0 (a dynamic layout's first check)

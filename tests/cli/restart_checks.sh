@@ -110,4 +110,17 @@ printf 't,h,u\n0,0.06,0.37\n0.15,0.08,0.5\n' > series.csv
 series restart_second.xml s_edit.xml s_edit -e "s|restart_first/checkpoint.h5|s_first/checkpoint.h5|"
 expect 2 "the checkpoint belongs to a different scene: 'Channel->Left boundary->Inflow series file content' = [0-9a-f]* there, [0-9a-f]* here" --check s_edit.xml
 expect 2 "Inflow series file content' = " s_edit.xml
+# 9. A restart from elsewhere into a directory that holds another run of the same scene starts
+#    that directory's files afresh: before, it kept that run's rows up to the checkpoint time
+#    and joined them to a continuation of a different trajectory (a hostile-user run).
+base r_a.xml $ck r_join
+expect 0 "completed at t = 0.2 s" r_a.xml                       # rows 0.15, 0.2 after 0.1
+scene "$SRC/restart_first.xml" mid.xml -e 's|value="restart_first"/>|value="mid"/>|' \
+      -e 's|"End time" type="double" value="0.1"|"End time" type="double" value="0.15"|'
+expect 0 "completed at t = 0.15 s" mid.xml
+base r_b.xml mid/checkpoint.h5 r_join
+expect 0 "completed at t = 0.2 s" r_b.xml                       # from mid's 0.15
+awk -F, 'NR > 1 && $1 <= 0.15 + 1e-12 { bad = 1 } END { exit bad }' r_join/profiles.csv ||
+  fail "r_join/profiles.csv keeps rows at or before the checkpoint time 0.15 s of another history"
+grep -q '^0.2,' r_join/profiles.csv || fail "r_join/profiles.csv has no row at 0.2 s"
 echo "restart checks passed"

@@ -68,6 +68,10 @@ struct DirectoryPlan {
   std::vector<std::string> remove;          ///< earlier files to delete (full paths)
   std::vector<std::string> earlier_files;   ///< an earlier run of this scene: its manifest files
   bool same_scene = false;                  ///< run.json of this identity found
+  /// a restart that continues the directory's own run (its checkpoint lies in the directory):
+  /// the earlier files stay, cut back to the checkpoint time; a restart into another
+  /// directory starts that directory's files afresh (rows of another history are not kept)
+  bool continued = false;
 };
 
 /// Decide whether a run of identity `ours` (canonical lines `lines`) may write into `dir`:

@@ -113,6 +113,7 @@ class Simulation {
   double origin_ = 0.0;   ///< time of the scene's start; outputs at origin + k Interval
   long next_index_ = 1;   ///< k of the next output time
   bool restarted_ = false;
+  bool continued_ = false;  ///< a restart that continues its directory's own history
   double restart_time_ = 0.0;
   std::vector<std::string> canonical_;  ///< validated parameters (run_record.hpp)
   std::string identity_;
