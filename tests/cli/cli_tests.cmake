@@ -66,6 +66,11 @@ granflow_cli_test(dynamic_interface_off_node 0 "valid scene.*note: parameter .gr
 granflow_cli_test(scene_is_a_device 2 "scene file '/dev/zero' is not a regular file" --check /dev/zero)
 granflow_cli_test(series_is_a_device 2 "Inflow series file' = /dev/zero: not a regular file"
                   ${_cli}/bad_series_device.xml)
+# the MueLu and Ifpack2 lists pass through to Trilinos: built once at input on a model matrix
+granflow_cli_test(muelu_bad_smoother 2 "Pressure solver->MueLu' = \\{...\\}: the MueLu preconditioner cannot be built.*does not provide the smoother 'BOGUS'"
+                  --check ${_cli}/bad_muelu_bogus.xml)
+granflow_cli_test(ifpack2_negative_fill 2 "Momentum solver->Ifpack2->fact: iluk level-of-fill' = -1: .*allowed: an integer >= 0"
+                  --check ${_cli}/bad_ifpack2_fill.xml)
 granflow_cli_test(dry_depth_above_gate 2 "DAM->Dry depth' = 0.01: cells shallower than it do not move, and the gate's opening is only 0.06 m deep.*allowed: < 0.006 m"
                   --check ${_cli}/bad_dry_depth.xml)
 granflow_cli_test(coupled_ic_in_2d_part 2 "Initial condition->Type' = Block: puts material on \\[0, 0.1\\] m, inside the 2D subdomain"
