@@ -143,27 +143,32 @@ bool NdamSolver::rotational_cell(int i, int k) const {
 // from step to step, amplifies once the step is stiff, s = nu_eff dt / h^2 >> 1
 // (h = min(dx, dz)). So chi rolls off with r = s / c (c = kRotationalStiffness = 2); where
 // s < c it stays near 2 (at s = 0.23, the thin front of Setup II at 1.25 mm, 1.97):
-//  - next to NaSt2D's surface (Dirichlet Surface cells) chi = 1 + 1 / (1 + r^2), i.e. 1 where
-//    s >> c, a Uzawa step of nu_eff where the full step's 2 nu_eff overshoots; in the interior
-//    the same with r scaled by the contrast of nu_eff over the cell and its four neighbours,
-//    1 - nu_min / nu_max, so that chi = 2 stays where nu_eff is uniform (a Newtonian fluid: a
-//    nu = 1e3 m^2/s cavity settles in 40 steps with chi = 2, slower with chi = 1; numerics.md).
-//    Next to the surface (2026-12-04): in a resting pile (nu_eff 20-100 m^2/s, s ~ 1e3) chi = 2
-//    let a flag change at the toe start a pressure oscillation that woke the whole deposit for
-//    0.1 s (a column collapse, a = 1, phi = 35, delta = 30 deg, 5 mm: rms speed 3.8 -> 21 mm/s
-//    from 0.64 to 0.70 s, the top sinking by a cell, against its creep bound of 10.9 mm/s).
-//    chi -> 0 (the ghost surface's form below) cured that but let the same pile at 2.5 mm creep
-//    at 10-16 mm/s (the lagging pressure of the standard incremental update); chi -> 1 keeps
-//    both at 3-4 mm/s (docs/validation.md, "Coulomb friction in time and deposits at rest").
-//    In the interior (2026-12-05): a pile of phi = 40, delta = 20 deg (a = 1, 5 mm) at rest
+//  - next to the free surface, NaSt2D's (Dirichlet Surface cells) and the ghost fluid's alike:
+//    chi = 2 / (1 + r^2), so chi s -> 2 c^2 / s vanishes where s >> c (the standard
+//    incremental update). Until 2026-12-05 NaSt2D's surface took chi = 1 + 1 / (1 + r^2), a
+//    Uzawa step of nu_eff where the full step overshoots; that threw the viscous gate flows'
+//    surface cells off (nu = 0.3 / 1 m^2/s, s up to 46: 61 / 276 m/s in the stability suite,
+//    the 10 kPa Bingham material 7.1 m/s) where this form keeps them at 0.63-0.76 m/s
+//    (docs/validation.md, "Stability suite"). chi -> 1 had been chosen on 2026-12-04 for a
+//    column collapse (a = 1, phi = 35, delta = 30 deg) that crept at 10-16 mm/s at 2.5 mm
+//    with chi -> 0; re-measured with the loaded surface cells and the marker-void fill since,
+//    it rests with chi -> 0 at 4.6 mm/s (2.5 mm) and 4.5 mm/s (5 mm) against its creep bound
+//    of 10.9 mm/s. (A full chi = 2 there, before 2026-12-04: in a resting pile, nu_eff 20-100
+//    m^2/s and s ~ 1e3, a flag change at the toe started a pressure oscillation that woke the
+//    whole deposit for 0.1 s, the same column at 5 mm: rms speed 3.8 -> 21 mm/s from 0.64 to
+//    0.70 s, the top sinking by a cell.) The ghost-fluid surface's own measurement follows
+//    the next bullet.
+//  - in the interior chi = 1 + 1 / (1 + r^2) with r scaled by the contrast of nu_eff over the
+//    cell and its four neighbours, 1 - nu_min / nu_max, so that chi = 2 stays where nu_eff is
+//    uniform (a Newtonian fluid: a nu = 1e3 m^2/s cavity settles in 40 steps with chi = 2,
+//    slower with chi = 1; numerics.md). In the interior (2026-12-05): a pile of phi = 40, delta = 20 deg (a = 1, 5 mm) at rest
 //    from 0.40 s creeps along a one-cell shear band from its top at the symmetry wall to the
 //    toe, where nu_eff is orders of magnitude below the plug's on either side; with chi = 2
 //    the band's cells started a row-by-row pressure oscillation at 0.546 s (u 7 mm/s -> 20-60
 //    mm/s in 3 steps, no flag change) and the pile woke five times to 0.67 s (rms 28.5 mm/s
 //    against its creep bound of 10.8 mm/s); rolled off it rests at 4-6.5 mm/s (across the
 //    band nu_min / nu_max is far below 1, so the contrast leaves r nearly as it is).
-//  - next to the ghost-fluid surface: chi = 2 / (1 + r^2), so chi s -> 2 c^2 / s vanishes where
-//    s >> c (the standard incremental update). Measured on Setup II with nu = 1 m^2/s at 5 mm
+//    The ghost-fluid surface's measurement of the surface form: Setup II with nu = 1 m^2/s at 5 mm
 //    (s up to 140), the fastest cell to 0.3 s with outputs every 0.02 / 0.025 / 0.05 s:
 //    46 / 7.2 / 15 m/s at the gate's top with chi = 2 there (a fixed chi of 1 or 0.5 there:
 //    6-20 m/s), 0.38-0.49 m/s with this roll-off, c = 1 and 2 alike (the app and test
@@ -178,15 +183,14 @@ double NdamSolver::rotational_weight(int i, int k, double dt) const {
   const bool near_surface =
       any_flag(gi - 1, gi + 1, k - 1, k + 1,
                [](CellFlag f) { return f == CellFlag::Surface || f == CellFlag::Empty; });
-  if (near_surface && mac_.ghost_surface) return kRot / (1.0 + r * r);
-  if (!near_surface) {  // the interior: the full step is exact where nu_eff is uniform
-    double lo = nu_rot_(i, k), hi = lo;
-    for (const double n : {nu_rot_(i - 1, k), nu_rot_(i + 1, k), nu_rot_(i, k - 1), nu_rot_(i, k + 1)}) {
-      lo = std::min(lo, n);
-      hi = std::max(hi, n);
-    }
-    r *= hi > 0.0 ? 1.0 - lo / hi : 0.0;
+  if (near_surface) return kRot / (1.0 + r * r);
+  // the interior: the full step is exact where nu_eff is uniform
+  double lo = nu_rot_(i, k), hi = lo;
+  for (const double n : {nu_rot_(i - 1, k), nu_rot_(i + 1, k), nu_rot_(i, k - 1), nu_rot_(i, k + 1)}) {
+    lo = std::min(lo, n);
+    hi = std::max(hi, n);
   }
+  r *= hi > 0.0 ? 1.0 - lo / hi : 0.0;
   return 1.0 + 1.0 / (1.0 + r * r);
 }
 

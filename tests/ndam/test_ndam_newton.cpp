@@ -268,29 +268,31 @@ TEST(NdamPressureNewton, SetupIIDepositConvergesAt10mm) {
 // fallback (also at most 2 Newton steps) must bring every one of them to it, and the run must
 // then agree with the lagged one as the default solver does (same bounds as above). With
 // 'Anderson fallback' = None the same run stops (Stop), so the fallback is what carries it.
+// To 0.8 s (0.9 s until 2026-12-05): by 0.85 s the 10 mm wall column is 0.14-0.15 m deep,
+// at the 0.15 m box's limit, and with the surface's rotational roll-off to 0 the forced run
+// reached it (0.1456 m at 0.847 s), a stop of the scene, not of the solver.
 TEST(NdamPressureNewton, AndersonFallbackTakesOnAStalledStep) {
   const std::string forced =
       "<Parameter name=\"Anderson depth\" type=\"int\" value=\"0\"/>"
       "<ParameterList name=\"Pressure Newton\">"
       "<Parameter name=\"Max Newton iterations\" type=\"int\" value=\"2\"/></ParameterList>";
   setup2_pair::Stopped none;
-  setup2_pair::run(100, 15, 0.9, true,
+  setup2_pair::run(100, 15, 0.8, true,
                    forced + "<Parameter name=\"Anderson fallback\" type=\"string\" "
                             "value=\"None\"/>",
                    &none);
   std::printf("[measured] without the fallback: %s at t = %.4f s\n",
               none.any ? "stopped" : "completed", none.t);
   EXPECT_TRUE(none.any);  // the forced solver alone does not carry the run
-  const auto lag = setup2_pair::run(100, 15, 0.9, false);
-  const auto nl = setup2_pair::run(100, 15, 0.9, true, forced);
+  const auto lag = setup2_pair::run(100, 15, 0.8, false);
+  const auto nl = setup2_pair::run(100, 15, 0.8, true, forced);
   if (HasFailure()) return;
   const auto fallbacks = nl.stats["newton"]["anderson_fallbacks"].get<long long>();
   std::printf("[measured] %ld steps, %lld fallbacks, %lld converged\n", nl.steps, fallbacks,
               nl.stats["newton"]["anderson_fallbacks_converged"].get<long long>());
   EXPECT_GT(fallbacks, 0);
   EXPECT_EQ(nl.stats["newton"]["anderson_fallbacks_converged"].get<long long>(), fallbacks);
-  setup2_pair::expect_pair_agrees(lag, nl, 0.9, {0.65, 0.7, 0.75, 0.8, 0.85, 0.9}, 0.010,
-                                  {0.7, 0.8}, 0.1);
+  setup2_pair::expect_pair_agrees(lag, nl, 0.8, {0.65, 0.7, 0.75, 0.8}, 0.010, {0.7}, 0.1);
 }
 
 // The shipped Setup II grid, 5 mm (200 x 30 cells), to its End time 0.75 s. This is the
