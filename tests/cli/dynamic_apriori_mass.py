@@ -22,16 +22,11 @@ import re
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scene_edit import edit  # noqa: E402
+
 exe, work, inputs = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(work, exist_ok=True)
-
-
-def edit(text, name, typ, value):
-    new, n = re.subn(r'(<Parameter name="%s" type="%s" value=")[^"]*(")' % (re.escape(name), typ),
-                     r"\g<1>%s\g<2>" % value, text)
-    if n == 0:
-        sys.exit(f"{name} not in the scene")
-    return new
 
 
 base = open(os.path.join(inputs, "setup2_dynamic.xml")).read()

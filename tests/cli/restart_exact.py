@@ -15,22 +15,16 @@ restart onto slabs of the checkpoint and rebuilds after it), and the restart rep
 import json
 import csv
 import os
-import re
 import shutil
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from scene_edit import edit  # noqa: E402
+
 exe, work, scenes = sys.argv[1], sys.argv[2], sys.argv[3:]
 np_ = int(os.environ.get("NP", "1"))
 launch = ["mpiexec", "--allow-run-as-root", "--oversubscribe", "-n", str(np_)] if np_ > 1 else []
-
-
-def edit(text, name, typ, value):
-    new, n = re.subn(r'(<Parameter name="%s" type="%s" value=")[^"]*(")' % (re.escape(name), typ),
-                     r"\g<1>%s\g<2>" % value, text)
-    if n == 0:
-        sys.exit(f"{name} not in the scene")
-    return new
 
 
 failed = []
