@@ -29,6 +29,10 @@ std::string to_string(BoundaryType t) {
   return "?";
 }
 
+std::string input_path(const std::string& file, const std::string& scene_dir) {
+  return (file.empty() || file.front() == '/' || scene_dir.empty()) ? file : scene_dir + "/" + file;
+}
+
 InflowSeries::InflowSeries(double h, double u) : t_{0.0}, h_{h}, u_{u} {}
 
 InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& ppath) {
@@ -213,9 +217,8 @@ Channel Channel::from_parameters(const Teuchos::ParameterList& pl,
         params::fail(left, "Inflow series file", file,
                      "given together with 'Inflow depth'/'Inflow velocity'; allowed: either a "
                      "series file or constant values");
-      const std::string full = (file.front() == '/' || scene_dir.empty()) ? file
-                                                                          : scene_dir + "/" + file;
-      c.left.inflow = InflowSeries::from_csv(full, params::path(left, "Inflow series file"));
+      c.left.inflow = InflowSeries::from_csv(input_path(file, scene_dir),
+                                             params::path(left, "Inflow series file"));
     } else {
       const double h = left.get<double>("Inflow depth");
       const double u = left.get<double>("Inflow velocity");

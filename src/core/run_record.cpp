@@ -1,5 +1,6 @@
 #include "granflow/core/run_record.hpp"
 
+#include "granflow/core/channel.hpp"
 #include "granflow/params/parameters.hpp"
 
 #include <Teuchos_Array.hpp>
@@ -124,9 +125,15 @@ std::string value_of(const std::string& typed) {
   return out;
 }
 
-std::uint64_t fnv1a(const std::string& s, std::uint64_t h) {
+std::uint64_t fnv1a(const std::string& s, std::uint64_t h = 1469598103934665603ULL) {
   for (unsigned char c : s) h = (h ^ c) * 1099511628211ULL;
   return h;
+}
+
+std::string hex64(std::uint64_t h) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
 }
 }  // namespace
 
@@ -142,16 +149,11 @@ std::vector<std::string> canonical_parameters(const Teuchos::ParameterList& vali
     if (left.isType<std::string>("Inflow series file")) {
       const std::string file = left.get<std::string>("Inflow series file");
       if (!file.empty()) {
-        const std::string full =
-            (file.front() == '/' || scene_dir.empty()) ? file : scene_dir + "/" + file;
-        std::ifstream in(full, std::ios::binary);
+        std::ifstream in(input_path(file, scene_dir), std::ios::binary);
         std::ostringstream bytes;
         bytes << in.rdbuf();
-        char buf[32];
-        std::snprintf(buf, sizeof buf, "%016llx",
-                      static_cast<unsigned long long>(fnv1a(bytes.str(), 1469598103934665603ULL)));
         out.push_back("Channel->Left boundary->Inflow series file content (fnv1a) = " +
-                      std::string(buf));
+                      hex64(fnv1a(bytes.str())));
       }
     }
   }
@@ -179,9 +181,7 @@ std::string scene_identity(const std::vector<std::string>& canonical) {
     if (restart_may_change(split(line).first)) continue;
     h = fnv1a(line + "\n", h);
   }
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
+  return hex64(h);
 }
 
 std::vector<std::string> scene_differences(const std::vector<std::string>& theirs,
@@ -368,7 +368,6 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
                              ". Allowed: another directory, or the option --overwrite to "
                              "replace those files");
   }
-  if (plan.same_scene) plan.earlier_files = earlier.files;
   have_manifest = have_manifest || plan.same_scene;
   // A restart continues the directory's history only when its checkpoint is that history's
   // (it lies in the directory). A restart from elsewhere into a directory that holds another
@@ -379,9 +378,9 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
                    fs::equivalent(fs::absolute(keep, ee).parent_path(), dir, ee);
   if (plan.same_scene && own) {  // continued: the driver cuts back, keeps
     plan.continued = true;
+    plan.earlier_files = earlier.files;
     return plan;
   }
-  plan.earlier_files.clear();
   // A fresh run of the same scene, or --overwrite: remove the earlier run's files (the ones
   // its manifest lists and any other granflow output names), never the checkpoint we read.
   std::set<std::string> names(present.begin(), present.end());

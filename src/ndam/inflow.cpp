@@ -202,14 +202,9 @@ void NdamSolver::inject_markers(double dt, MarkerSet& markers) const {
 
 std::vector<double> NdamSolver::inflow_faces() const {
   std::vector<double> f(static_cast<std::size_t>(cfg_.grid.nz), 0.0);
-  int owner = 0;
-  if (mac_.slab.i0 == 0 && !cfg_.periodic_x()) {
+  if (mac_.slab.i0 == 0 && !cfg_.periodic_x())  // the owner of column 0; the others add zeros
     for (int k = 0; k < cfg_.grid.nz; ++k) f[static_cast<std::size_t>(k)] = u_(-1, k);
-    MPI_Comm_rank(comm_, &owner);
-  }
-  int root = 0;
-  MPI_Allreduce(&owner, &root, 1, MPI_INT, MPI_MAX, comm_);
-  MPI_Bcast(f.data(), cfg_.grid.nz, MPI_DOUBLE, root, comm_);
+  MPI_Allreduce(MPI_IN_PLACE, f.data(), cfg_.grid.nz, MPI_DOUBLE, MPI_SUM, comm_);
   return f;
 }
 

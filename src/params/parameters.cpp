@@ -48,9 +48,6 @@ void add_bool(ParameterList& pl, const std::string& name, bool def, const std::s
   pl.set(name, def, doc);
 }
 
-namespace {
-// Teuchos messages start with the source location and the failed internal test of the throw;
-// keep only the lines that name the parameter, its list, and the allowed values.
 std::string trim_teuchos(const std::string& what) {
   std::istringstream in(what);
   std::string line, out;
@@ -68,7 +65,6 @@ std::string trim_teuchos(const std::string& what) {
   while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
   return out;
 }
-}  // namespace
 
 void name_sublists(ParameterList& pl) {
   for (auto it = pl.begin(); it != pl.end(); ++it) {

@@ -833,18 +833,14 @@ void LinearSystem::add_stiff_switch(ParameterList& pl, const std::string& precon
 }
 
 namespace {
-// The first lines of a Trilinos exception that say what is wrong, without source locations.
+// The first lines of a Trilinos exception that say what is wrong (params::trim_teuchos), at
+// most six, without the list of every valid parameter that an unknown name brings along.
 std::string trilinos_reason(const std::string& what) {
-  std::istringstream in(what);
-  std::string line, out;
-  int kept = 0;
-  while (std::getline(in, line) && kept < 6) {
-    if (line.find("The valid parameters and types are") != std::string::npos) break;
-    if (line.empty() || line[0] == '/' || line.rfind("./", 0) == 0 ||
-        line.rfind("Throw number", 0) == 0 || line.rfind("Throw test", 0) == 0)
-      continue;
-    out += (kept++ ? "\n  " : "") + line;
-  }
+  std::string out = params::trim_teuchos(what.substr(0, what.find("The valid parameters and types are")));
+  std::size_t end = 0;
+  for (int n = 0; n < 6 && end != std::string::npos; ++n) end = out.find('\n', end + (n > 0));
+  if (end != std::string::npos) out.erase(end);
+  out.erase(0, out.find_first_not_of(' '));
   return out.empty() ? what : out;
 }
 

@@ -30,6 +30,9 @@ class InflowSeries {
   std::vector<double> t_{0.0}, h_{0.0}, u_{0.0};
 };
 
+/// An input file named in a scene: absolute as given, else relative to the scene's directory.
+std::string input_path(const std::string& file, const std::string& scene_dir);
+
 struct BoundarySpec {
   BoundaryType type = BoundaryType::Outflow;
   InflowSeries inflow;  ///< used only when type == Inflow

@@ -102,6 +102,10 @@ std::string path(const ParameterList& pl, const std::string& name);
 [[noreturn]] void fail(const ParameterList& pl, const std::string& name, const std::string& value,
                        const std::string& why);
 
+/// A Trilinos exception's text without its source locations and internal test lines: the
+/// lines that name the parameter, its list and the allowed values, each indented by two spaces.
+std::string trim_teuchos(const std::string& what);
+
 /// Markdown reference of a valid list (name, type, default, allowed values, doc), recursive.
 std::string reference_markdown(const ParameterList& valid, int heading_level = 2);
 
