@@ -290,8 +290,7 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
           const long long row = 2 * mac_.p_gid(mac_.slab.i0 + i, k) + c;
           const auto lr = static_cast<std::size_t>(row - first);
           const bool unknown = c == U ? mac_.u_unknown(i, k) : mac_.w_unknown(i, k);
-          if (!unknown) {  // wall-normal face: identity row, value 0
-            if (rebuild) momentum_->add(row, row, 1.0);
+          if (!unknown) {  // wall-normal face: identity row (no entries), value 0
             rhs[lr] = 0.0;
             x[lr] = 0.0;
             continue;

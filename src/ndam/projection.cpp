@@ -57,9 +57,9 @@ void NdamSolver::assemble_pressure() {
       // right-hand side is its value. An unknown next to such a Dirichlet cell moves the
       // coupling to its right-hand side (solve_pressure), which keeps -L symmetric positive
       // definite. Faces to walls, obstacles and the open outflow carry no phi flux (Neumann,
-      // eq. 14 for the projection increment).
+      // eq. 14 for the projection increment). A row without entries is an identity row.
       if (row == pin_ || !mac_.p_unknown(gi, k)) {
-        pressure_->add(row, row, row == pin_ ? cx + cz : 1.0);
+        if (row == pin_) pressure_->add(row, row, cx + cz);
         continue;
       }
       auto couple = [&](int gn, int kn, double c) {

@@ -97,8 +97,21 @@ struct LinearSystem::Impl {
   GO first = 0;
   LO nlocal = 0;
   ParameterList params;
-  // assembly buffer: the triplets of each local row (capacity kept between assemblies)
-  std::vector<std::vector<std::pair<GO, SC>>> rows;
+  // Assembly buffer: the triplets in the order they were added, in three flat arrays
+  // (capacity kept between assemblies), and the same entries grouped by local row in their
+  // order of addition (group_rows). A buffer per row (one vector each) cost a cache miss per
+  // row: the N-DAM adds one identity row for every face and cell of the box without material,
+  // ten for each material row, and the per-row buffers were a fifth of the 1.3 mm chute.
+  std::vector<LO> add_row;
+  std::vector<GO> add_col;
+  std::vector<SC> add_val;
+  bool add_ascending = true;       // rows added in non-decreasing order (the models do)
+  std::vector<size_t> grp_start;   // CSR offsets of the grouped entries
+  std::vector<GO> grp_col;         // grouped columns and values when the rows came unordered
+  std::vector<SC> grp_val;
+  const GO* gcol = nullptr;        // the grouped entries (add_* themselves when ascending)
+  const SC* gval = nullptr;
+  void group_rows();
   std::vector<size_t> row_start;  // pattern of the current matrix (CSR offsets, columns)
   std::vector<GO> pattern;
   std::vector<size_t> value_slot;  // where each entry of the pattern sits in Tpetra's values
@@ -116,6 +129,7 @@ struct LinearSystem::Impl {
   std::vector<char> rec_first, rec_single;
   std::vector<size_t> pre_start;
   std::vector<long long> pre_dest;
+  std::vector<SC> pre_values;  // the repeat path's merged values (capacity kept)
   bool repeat_values(const std::string& type, std::vector<SC>& pre) const;
   void update_staleness();
   double rebuild_preconditioner();  // a fresh one for A (counted); returns its setup seconds
@@ -150,6 +164,7 @@ struct LinearSystem::Impl {
   long long repeats = 0;            // assemblies that took the repeat path
   long long prec_setups = 0;        // preconditioners built
   double prec_setup_seconds = 0.0;  // their total setup time
+  double krylov_seconds = 0.0;      // the Krylov solves' time (solve() less the setups)
   long long prec_retries = 0;        // solves repeated with a fresh one (a kept one failed)
 };
 
@@ -187,6 +202,7 @@ LinearSystem::~LinearSystem() = default;
 
 long long LinearSystem::preconditioner_setups() const { return impl_->prec_setups; }
 double LinearSystem::preconditioner_setup_seconds() const { return impl_->prec_setup_seconds; }
+double LinearSystem::krylov_seconds() const { return impl_->krylov_seconds; }
 long long LinearSystem::pattern_builds() const { return impl_->pattern_builds; }
 long long LinearSystem::preconditioner_retries() const { return impl_->prec_retries; }
 long long LinearSystem::repeat_assemblies() const { return impl_->repeats; }
@@ -197,8 +213,10 @@ long long LinearSystem::global_rows() const {
 int LinearSystem::local_rows() const { return impl_->nlocal; }
 
 void LinearSystem::begin() {
-  impl_->rows.resize(static_cast<size_t>(impl_->nlocal));
-  for (auto& r : impl_->rows) r.clear();
+  impl_->add_row.clear();
+  impl_->add_col.clear();
+  impl_->add_val.clear();
+  impl_->add_ascending = true;
 }
 
 void LinearSystem::set_stiffness(double s) { impl_->stiffness = s; }
@@ -206,7 +224,44 @@ void LinearSystem::set_stiffness(double s) { impl_->stiffness = s; }
 void LinearSystem::add(long long row, long long col, double v) {
   const long long lr = row - impl_->first;
   if (lr < 0 || lr >= impl_->nlocal) throw std::logic_error("LinearSystem::add: row not owned");
-  impl_->rows[static_cast<size_t>(lr)].emplace_back(col, v);
+  auto& m = *impl_;
+  if (m.add_row.size() == m.add_row.capacity()) {
+    // grow by an eighth, not by doubling (as the record in end(): a steady run's emission count
+    // wanders by a per cent, and a doubled buffer would be a step in its resident set)
+    const size_t cap = m.add_row.size() + m.add_row.size() / 8 + 1024;
+    m.add_row.reserve(cap);
+    m.add_col.reserve(cap);
+    m.add_val.reserve(cap);
+  }
+  if (!m.add_row.empty() && lr < m.add_row.back()) m.add_ascending = false;
+  m.add_row.push_back(static_cast<LO>(lr));
+  m.add_col.push_back(col);
+  m.add_val.push_back(v);
+}
+
+// Groups the added triplets by local row, keeping their order of addition within a row (the
+// order of summation of duplicates): CSR offsets from the row counts, and, when the rows came
+// in any order, a stable scatter into grp_col / grp_val.
+void LinearSystem::Impl::group_rows() {
+  const size_t n = static_cast<size_t>(nlocal), added = add_row.size();
+  grp_start.assign(n + 1, 0);
+  for (LO r : add_row) ++grp_start[static_cast<size_t>(r) + 1];
+  for (size_t i = 0; i < n; ++i) grp_start[i + 1] += grp_start[i];
+  if (add_ascending) {
+    gcol = add_col.data();
+    gval = add_val.data();
+    return;
+  }
+  grp_col.resize(added);
+  grp_val.resize(added);
+  std::vector<size_t> pos(grp_start.begin(), grp_start.end() - 1);
+  for (size_t q = 0; q < added; ++q) {
+    const size_t d = pos[static_cast<size_t>(add_row[q])]++;
+    grp_col[d] = add_col[q];
+    grp_val[d] = add_val[q];
+  }
+  gcol = grp_col.data();
+  gval = grp_val.data();
 }
 
 // Splits the assembled rows (CSR in the original numbering) into trivial rows and the kept
@@ -338,24 +393,19 @@ void LinearSystem::Impl::compress_rows(std::vector<size_t>& start, std::vector<G
 bool LinearSystem::Impl::repeat_values(const std::string& type, std::vector<SC>& pre) const {
   if (!rec_valid || A.is_null() || type != rec_type) return false;
   const size_t n = static_cast<size_t>(nlocal);
-  for (size_t i = 0; i < n; ++i) {
-    const auto& r = rows[i];
-    const size_t b = rec_start[i];
-    if (r.size() != rec_start[i + 1] - b) return false;
-    for (size_t j = 0; j < r.size(); ++j)
-      if (r[j].first != rec_cols[b + j]) return false;
-  }
+  if (grp_start != rec_start || !std::equal(gcol, gcol + grp_start[n], rec_cols.begin()))
+    return false;
   pre.assign(pre_start.back(), 0.0);
   for (size_t i = 0; i < n; ++i) {
-    const auto& r = rows[i];
-    const size_t b = rec_start[i];
+    const size_t b = rec_start[i], size = rec_start[i + 1] - b;
     // the summation order of the full path: the sorted order, duplicates summed in it
-    for (size_t j = 0; j < r.size(); ++j) {
+    for (size_t j = 0; j < size; ++j) {
       const size_t d = rec_merged[b + j];
-      const double v = r[rec_order[b + j]].second;
+      const double v = gval[b + rec_order[b + j]];
       if (rec_first[b + j]) pre[d] = v;
       else pre[d] += v;
     }
+    if (size == 0) pre[pre_start[i]] = 1.0;  // a row without entries: an identity row
     if (rec_single[i] != 2 && (pre[pre_start[i]] != 0.0) != (rec_single[i] == 1)) return false;
   }
   return true;
@@ -375,8 +425,9 @@ void LinearSystem::end() {
                                    m.stiffness >= m.params.get<double>("Stiff threshold")
                                ? m.params.get<std::string>("Stiff preconditioner")
                                : m.params.get<std::string>("Preconditioner");
+  m.group_rows();
   {
-    std::vector<SC> pre;
+    std::vector<SC>& pre = m.pre_values;
     const int repeat_local = m.repeat_values(type, pre) ? 1 : 0;
     int repeat_all = 0;
     Teuchos::reduceAll<int, int>(*m.comm, Teuchos::REDUCE_MIN, repeat_local,
@@ -404,10 +455,9 @@ void LinearSystem::end() {
   std::vector<size_t> start(n + 1, 0);
   std::vector<GO> cols;
   std::vector<SC> vals;
-  size_t added = 0;
-  for (const auto& r : m.rows) added += r.size();
-  cols.reserve(added);
-  vals.reserve(added);
+  const size_t added = m.grp_start[n];
+  cols.reserve(added + n);
+  vals.reserve(added + n);
   // the record of this emission sequence, for the repeat path of the next assembly; when it
   // outgrows its capacity it grows by an eighth, not by doubling (a steady run's emission
   // count wanders by a per cent: one such growth, not a resident set that doubles its share)
@@ -418,28 +468,24 @@ void LinearSystem::end() {
     m.rec_merged.reserve(cap);
     m.rec_first.reserve(cap);
   }
-  m.rec_start.assign(n + 1, 0);
-  m.rec_cols.resize(added);
+  m.rec_start = m.grp_start;
+  m.rec_cols.assign(m.gcol, m.gcol + added);
   m.rec_order.resize(added);
   m.rec_merged.resize(added);
   m.rec_first.resize(added);
   m.rec_single.assign(n, 2);
   std::vector<std::pair<GO, std::uint32_t>> order;
   for (size_t i = 0; i < n; ++i) {
-    const auto& r = m.rows[i];
-    const size_t b = m.rec_start[i];
-    m.rec_start[i + 1] = b + r.size();
+    const size_t b = m.rec_start[i], size = m.rec_start[i + 1] - b;
     // sort (column, emission index) by column only: the same permutation std::sort gives the
     // (column, value) pairs, so the sums of duplicates keep their order
-    order.resize(r.size());
-    for (size_t j = 0; j < r.size(); ++j) {
-      m.rec_cols[b + j] = r[j].first;
-      order[j] = {r[j].first, static_cast<std::uint32_t>(j)};
-    }
-    std::sort(order.begin(), order.end(),
-              [](const auto& x, const auto& y) { return x.first < y.first; });
-    for (size_t q = 0; q < order.size(); ++q) {
-      const double v = r[order[q].second].second;
+    order.resize(size);
+    for (size_t j = 0; j < size; ++j) order[j] = {m.gcol[b + j], static_cast<std::uint32_t>(j)};
+    if (size > 1)
+      std::sort(order.begin(), order.end(),
+                [](const auto& x, const auto& y) { return x.first < y.first; });
+    for (size_t q = 0; q < size; ++q) {
+      const double v = m.gval[b + order[q].second];
       const bool first = !(q > 0 && order[q].first == order[q - 1].first);
       if (first) {
         cols.push_back(order[q].first);
@@ -450,6 +496,10 @@ void LinearSystem::end() {
       m.rec_order[b + q] = order[q].second;
       m.rec_merged[b + q] = cols.size() - 1;
       m.rec_first[b + q] = first ? 1 : 0;
+    }
+    if (size == 0) {  // a row without entries: an identity row (x = b there)
+      cols.push_back(m.first + static_cast<GO>(i));
+      vals.push_back(1.0);
     }
     start[i + 1] = cols.size();
     if (start[i + 1] - start[i] == 1 && cols[start[i]] == m.first + static_cast<GO>(i))
@@ -684,6 +734,7 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
     for (LO i = 0; i < nk; ++i) x[static_cast<size_t>(m.kept[static_cast<size_t>(i)])] = 0.0;
     st.converged = true;
     st.solve_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
+    m.krylov_seconds += st.solve_seconds;
     ++solves_;
     return st;
   }
@@ -748,6 +799,7 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
     st.iterations = solver->getNumIters();
     st.residual = std::numeric_limits<double>::quiet_NaN();
     st.solve_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
+    m.krylov_seconds += st.solve_seconds;
     ++solves_;
     return st;
   }
@@ -769,6 +821,7 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
     for (LO i = 0; i < nk; ++i) x[static_cast<size_t>(m.kept[static_cast<size_t>(i)])] = xv[i];
   }
   st.solve_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
+  m.krylov_seconds += st.solve_seconds;
   total_iterations_ += st.iterations;
   ++solves_;
   return st;

@@ -230,6 +230,67 @@ TEST(LinearSystemRepeat, PersistentSystemEqualsFreshOnes) {
   }
 }
 
+// The assembly buffer: rows may be added in any order, and a row that gets no entry is an
+// identity row (the N-DAM leaves the rows of fixed faces and of cells without material empty).
+// The chain above, its trivial rows as identity rows, assembled with the rows in ascending
+// order and explicit identity rows, in descending order with the identity rows left empty, and
+// in ascending order with them empty, gives the same solution to the last bit (the entries of
+// a row keep their order, so the duplicates' sums do), in a first assembly and in a second one
+// with other values that takes the repeat path.
+TEST(LinearSystemAssembly, RowOrderAndEmptyIdentityRowsGiveTheSameSolution) {
+  int ranks = 1, rank = 0;
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const int local = 40;
+  const long long total = static_cast<long long>(local) * ranks,
+                  first = static_cast<long long>(local) * rank;
+  const long long lo = 10, hi = total - 10;
+  auto assemble = [&](LinearSystem& ls, bool descending, bool empty_identity, double scale) {
+    ls.begin();
+    for (int q = 0; q < local; ++q) {
+      const long long r = descending ? first + local - 1 - q : first + q;
+      if (r >= lo && r < hi) {
+        ls.add(r, r, 0.1 * scale);
+        if (r + 1 < hi) ls.add(r, r + 1, -1.0 / 3.0 * scale);
+        ls.add(r, r, 1.7 * scale + 1e-3 * static_cast<double>(r));
+        if (r - 1 >= lo) ls.add(r, r - 1, -1.0 / 7.0 * scale);
+        ls.add(r, r, 0.3 / 11.0 * scale);
+      } else if (!empty_identity) {
+        ls.add(r, r, 1.0);
+      }
+    }
+    ls.end();
+  };
+  for (const char* prec : {"Ifpack2 RELAXATION", "Ifpack2 RILUK"}) {
+    auto pl = *LinearSystem::getValidParameters("order", "GMRES", prec, 1e-12);
+    pl.set("Preconditioner reuse", 0);
+    std::vector<std::vector<double>> x[3];
+    const bool descending[3] = {false, true, false}, empty[3] = {false, true, true};
+    for (int v = 0; v < 3; ++v) {
+      LinearSystem ls(MPI_COMM_WORLD, total, first, local, pl);
+      for (double scale : {1.0, 1.3}) {
+        assemble(ls, descending[v], empty[v], scale);
+        x[v].push_back(solve_chain(ls, first, local));
+      }
+      EXPECT_EQ(ls.repeat_assemblies(), 1) << prec << ", variant " << v;
+    }
+    for (int v = 1; v < 3; ++v)
+      for (std::size_t a = 0; a < 2; ++a) {
+        int differ = std::memcmp(x[v][a].data(), x[0][a].data(),
+                                 x[0][a].size() * sizeof(double)) != 0,
+            any = 0;
+        MPI_Allreduce(&differ, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+        EXPECT_EQ(any, 0) << prec << ", variant " << v << ", assembly " << a;
+      }
+    // the identity rows solve x = b
+    const auto& xe = x[2][0];
+    for (int i = 0; i < local; ++i) {
+      if (first + i >= lo && first + i < hi) continue;
+      EXPECT_EQ(xe[static_cast<std::size_t>(i)], 1.0 + 0.01 * static_cast<double>(first + i));
+    }
+  }
+}
+
 int main(int argc, char** argv) {
   Teuchos::GlobalMPISession mpi(&argc, &argv, nullptr);
   int rc = 0;

@@ -63,7 +63,9 @@ class LinearSystem {
   /// else "Preconditioner". Must be the same on every rank (the choice is collective). Kept
   /// until the next call; without any call the stiffness is 0.
   void set_stiffness(double s);
-  /// Add v to A(row, col); row must be locally owned; duplicates are summed.
+  /// Add v to A(row, col); row must be locally owned; duplicates are summed. A row that gets
+  /// no entry in an assembly is an identity row (x = b there): the models leave the rows of
+  /// fixed faces and of cells without material empty, most rows of a chute's box.
   void add(long long row, long long col, double v);
   /// Finish the assembly (collective); the preconditioner is rebuilt at the next solve.
   void end();
@@ -90,6 +92,8 @@ class LinearSystem {
   /// Preconditioners built, their total setup seconds, and sparsity graphs built.
   long long preconditioner_setups() const;
   double preconditioner_setup_seconds() const;
+  /// Seconds in the Krylov iterations of all solves (what solve() takes besides the setups).
+  double krylov_seconds() const;
   long long pattern_builds() const;
   /// Solves repeated with a fresh preconditioner because a kept one did not converge.
   long long preconditioner_retries() const;
