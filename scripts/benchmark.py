@@ -4,7 +4,8 @@
 Runs Setup II in full 2D (inputs/setup2_ndam.xml, the shipped defaults) to t = 0.75 s at 5, 2.6
 and 1.3 mm, one run at a time, and prints per resolution: wall time, per-phase seconds, steps,
 Krylov iterations per solve, peak resident memory (and per material cell), and the run's time as
-a multiple of the floor. With GRANFLOW=/path/to/other/granflow the same scenes also run through
+a multiple of the floor; then the momentum and pressure phases split into preconditioner setups,
+Krylov iterations and the rest (assembly, copies). With GRANFLOW=/path/to/other/granflow the same scenes also run through
 that build, back to back with this one (ours, then the other, per resolution and repeat), and a
 ratio column says how much faster this build is (median over the repeats).
 
@@ -96,6 +97,20 @@ def floor_per_step(bench, cells, prec, np_):
     return float(row[3]) + float(row[7])
 
 
+def split(n):
+    """The momentum and pressure phases split into preconditioner setups, Krylov iterations and
+    the rest (assembly of matrix and right-hand side, copies), in seconds; None for a build whose
+    summary has no Krylov seconds (before 2026-12-05)."""
+    out = {}
+    for ph in ("momentum", "pressure"):
+        if ph + "_krylov_seconds" not in n:
+            return None
+        setup, krylov = n[ph + "_preconditioner_setup_seconds"], n[ph + "_krylov_seconds"]
+        out[ph] = {"setup": setup, "krylov": krylov,
+                   "rest": n["seconds"].get(ph, 0) - setup - krylov}
+    return out
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--build", default=os.path.join(ROOT, "build"))
@@ -147,6 +162,7 @@ def main():
                "status": s["status"], "wall_s": wall, "steps": n["steps"],
                "seconds": n["seconds"], "krylov_p": n["pressure_krylov_iterations_per_solve"],
                "krylov_m": n["momentum_krylov_iterations_per_solve"],
+               "split": split(n),
                "material_cells": cells, "peak_MB": peak / 1e6,
                "bytes_per_material_cell": peak / cells, "floor_s": floor,
                "multiple_of_floor": wall / floor}
@@ -176,6 +192,19 @@ def main():
         if w["status"] != "completed":
             line += " (%s)" % w["status"]
         print(line)
+    if any(w["split"] for w in rows):
+        print()
+        print("Where the momentum and pressure phases go [s] (setup: preconditioner setups; "
+              "Krylov: the iterations; rest: assembly and copies):")
+        print("| dx [mm] | momentum setup | momentum Krylov | momentum rest | pressure setup | "
+              "pressure Krylov | pressure rest |")
+        print("|---|---|---|---|---|---|---|")
+        for w in rows:
+            if w["split"]:
+                m, p = w["split"]["momentum"], w["split"]["pressure"]
+                print("| %g | %.3g | %.3g | %.3g | %.3g | %.3g | %.3g |" % (
+                    w["resolution_mm"], m["setup"], m["krylov"], m["rest"], p["setup"],
+                    p["krylov"], p["rest"]))
 
 
 if __name__ == "__main__":

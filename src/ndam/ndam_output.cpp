@@ -457,12 +457,14 @@ NdamStatistics NdamSolver::statistics() const {
   NdamStatistics s = stats_;
   s.retired_pressure_setups += pressure_->preconditioner_setups();
   s.retired_pressure_setup_seconds += pressure_->preconditioner_setup_seconds();
+  s.retired_pressure_krylov_seconds += pressure_->krylov_seconds();
   s.retired_pressure_patterns += pressure_->pattern_builds();
   s.retired_preconditioner_retries += pressure_->preconditioner_retries();
   if (momentum_) {
     s.retired_preconditioner_retries += momentum_->preconditioner_retries();
     s.retired_momentum_setups += momentum_->preconditioner_setups();
     s.retired_momentum_setup_seconds += momentum_->preconditioner_setup_seconds();
+    s.retired_momentum_krylov_seconds += momentum_->krylov_seconds();
     s.retired_momentum_patterns += momentum_->pattern_builds();
   }
   return s;
@@ -511,6 +513,8 @@ void NdamSolver::report(nlohmann::json& s) const {
        pressure_->preconditioner_setups() + stats_.retired_pressure_setups},
       {"pressure_preconditioner_setup_seconds",
        pressure_->preconditioner_setup_seconds() + stats_.retired_pressure_setup_seconds},
+      {"pressure_krylov_seconds",
+       pressure_->krylov_seconds() + stats_.retired_pressure_krylov_seconds},
       {"pressure_pattern_builds", pressure_->pattern_builds() + stats_.retired_pressure_patterns},
       {"momentum_pattern_builds",
        (momentum_ ? momentum_->pattern_builds() : 0LL) + stats_.retired_momentum_patterns},
@@ -519,6 +523,8 @@ void NdamSolver::report(nlohmann::json& s) const {
       {"momentum_preconditioner_setup_seconds",
        (momentum_ ? momentum_->preconditioner_setup_seconds() : 0.0) +
            stats_.retired_momentum_setup_seconds},
+      {"momentum_krylov_seconds",
+       (momentum_ ? momentum_->krylov_seconds() : 0.0) + stats_.retired_momentum_krylov_seconds},
       {"preconditioner_retries",
        pressure_->preconditioner_retries() +
            (momentum_ ? momentum_->preconditioner_retries() : 0LL) +

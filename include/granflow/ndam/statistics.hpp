@@ -24,6 +24,7 @@ struct NdamStatistics {
   long long retired_pressure_setups = 0, retired_momentum_setups = 0;
   long long retired_pressure_patterns = 0, retired_momentum_patterns = 0;
   double retired_pressure_setup_seconds = 0.0, retired_momentum_setup_seconds = 0.0;
+  double retired_pressure_krylov_seconds = 0.0, retired_momentum_krylov_seconds = 0.0;
   long long retired_preconditioner_retries = 0;  // solves repeated with a fresh preconditioner
 
   // markers moved into enclosed voids of the sampling (NdamSolver::fill_marker_voids), and the
@@ -81,6 +82,8 @@ struct NdamStatistics {
     retired_momentum_patterns += o.retired_momentum_patterns;
     retired_pressure_setup_seconds += o.retired_pressure_setup_seconds;
     retired_momentum_setup_seconds += o.retired_momentum_setup_seconds;
+    retired_pressure_krylov_seconds += o.retired_pressure_krylov_seconds;
+    retired_momentum_krylov_seconds += o.retired_momentum_krylov_seconds;
     retired_preconditioner_retries += o.retired_preconditioner_retries;
     friction_solves += o.friction_solves;
     friction_unconverged += o.friction_unconverged;
