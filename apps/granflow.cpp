@@ -39,7 +39,7 @@ void usage(std::ostream& os) {
         "  --help        this text\n\n"
         "SIGINT (Ctrl-C) or SIGTERM ends the step in progress, writes checkpoint.h5 of the last\n"
         "accepted state and summary.json with status \"interrupted\"; a second signal ends the\n"
-        "run at once.\n\n"
+        "run at once (one line says so; no checkpoint of that step).\n\n"
         "exit codes: 0 completed, 1 usage, 2 invalid input, 3 diverged (last good output and\n"
         "checkpoint kept), 4 runtime error, 5 step limit reached, 128 + signal when interrupted\n"
         "(130 SIGINT, 143 SIGTERM)\n";

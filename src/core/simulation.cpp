@@ -160,22 +160,39 @@ void agree_on_error(std::string& message) {
 // --- interrupts ---------------------------------------------------------------------------
 // The handler only records the signal; the time loop looks at it between steps, so the step in
 // progress (a linear solve, an MPI exchange) ends normally and every rank stops at the same
-// step. SA_RESETHAND: a second Ctrl-C finds the default action and ends the run at once.
+// step. A second signal ends the run at once, by the signal's default action, after one line
+// that says so (only async-signal-safe calls: write, sigaction, raise); the first one left the
+// process silently (a hostile-user run: "did it crash?").
 volatile std::sig_atomic_t g_signal = 0;
-extern "C" void on_signal(int sig) { g_signal = sig; }
+extern "C" void on_signal(int sig) {
+  if (g_signal == 0) {
+    g_signal = sig;
+    return;
+  }
+  static const char kMessage[] =
+      "granflow: a second interrupt: stopping at once, without finishing the step in progress; "
+      "the files written so far stay as they are (run.json still says 'running')\n";
+  const ssize_t written = ::write(STDERR_FILENO, kMessage, sizeof kMessage - 1);
+  (void)written;
+  struct sigaction dfl {};
+  dfl.sa_handler = SIG_DFL;
+  sigemptyset(&dfl.sa_mask);
+  sigaction(sig, &dfl, nullptr);
+  raise(sig);  // delivered when the handler returns: the default action ends the process
+}
 
 void install(struct sigaction* old_int, struct sigaction* old_term) {
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigemptyset(&sa.sa_mask);
-  sa.sa_flags = SA_RESETHAND | SA_RESTART;
+  sa.sa_flags = SA_RESTART;
   sigaction(SIGINT, &sa, old_int);
   sigaction(SIGTERM, &sa, old_term);
 }
 
 // For the run: our handler (again), the previous ones restored afterwards. A signal that came
-// before (while the model was built, see catch_interrupts()) stays pending, and the default
-// action it left in place stays, so that a second signal still ends the process.
+// before (while the model was built, see catch_interrupts()) stays pending, and the handler
+// stays, so that a second signal still ends the process.
 class SignalGuard {
  public:
   SignalGuard() : installed_(g_signal == 0) {
