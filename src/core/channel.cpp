@@ -120,6 +120,13 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
   }
   if (s.t_.empty())
     throw params::InputError("parameter '" + ppath + "' = " + file + ": no data rows");
+  // Before its first row the series says nothing; holding the first row backwards (what the
+  // interpolation would do) gave a silent inflow from t = 0 (a hostile-user run).
+  if (s.t_.front() > 0.0)
+    throw params::InputError("parameter '" + ppath + "' = " + file + ": the first row is at t = " +
+                             params::str(s.t_.front()) +
+                             " s; allowed: a first row at t <= 0 (runs start at t = 0; give "
+                             "h = 0 rows for a gate that opens later)");
   return s;
 }
 

@@ -651,6 +651,15 @@ struct Reader {
                       ve ? ve->validator() : Teuchos::RCP<const Teuchos::ParameterEntryValidator>()))
         fail(entered, why + "; allowed: " +
                           (supported ? describe(type, ve) : std::string("one of ") + kTypes));
+      // A line break (&#10; or &#13; in the XML) in a name, path or choice breaks the log lines
+      // and file names it goes into (a hostile-user run named a scene "a&#10;b"); only the free
+      // text of 'Description' may span lines.
+      if (type == "string" && name != "Description") {
+        const std::size_t nl = text.find_first_of("\n\r");
+        if (nl != std::string::npos)
+          fail(entered, "contains a line break (at position " + std::to_string(nl + 1) +
+                            "); allowed: one line of text (only 'Description' may span lines)");
+      }
       if (ve && !ve->validator().is_null()) {
         try {
           ve->validator()->validate(e, name, path);

@@ -101,6 +101,16 @@ TEST(InflowSeries, RejectsVelocitiesOutOfTheChannelNamingTheLine) {
   }
   const auto ok = write_tmp("series_gate_closes.csv", "0,0.06,0.37\n1,0.06,0.37\n1.1,0,0\n");
   EXPECT_NO_THROW(core::InflowSeries::from_csv(ok, p));
+  // a series that starts after t = 0 is refused (it said nothing about the start of the run)
+  const auto late = write_tmp("series_late.csv", "0.5,0.06,0.37\n1,0.06,0.37\n");
+  try {
+    core::InflowSeries::from_csv(late, p);
+    FAIL() << "a series from t = 0.5 s accepted";
+  } catch (const params::InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("the first row is at t = 0.5 s; allowed: a first row at t <= 0"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(Scene, EveryShippedSceneValidatesAndBuilds) {
@@ -169,6 +179,30 @@ TEST(StrictValues, BoolsAndText) {
   // Messages show such bytes as \xNN, so that the message itself is valid text.
   EXPECT_EQ(params::shown("setup2\xff_dam"), "\"setup2\\xff_dam\"");
   EXPECT_EQ(params::shown("D\xc3\xa9j\xc3\xa0"), "\"D\xc3\xa9j\xc3\xa0\"");
+}
+
+// A line break in a string (&#10; in the XML) is refused by name, except in the free text of
+// 'Description' (a hostile-user run named a scene "a&#10;b": its log lines broke in two).
+TEST(StrictValues, LineBreaksOnlyInTheDescription) {
+  const auto ok = write_tmp("multiline_description.xml",
+                            "<ParameterList name=\"granflow\">"
+                            "<Parameter name=\"Description\" type=\"string\" value=\"two&#10;lines\"/>"
+                            "</ParameterList>");
+  EXPECT_EQ(params::read_xml(ok)->get<std::string>("Description"), "two\nlines");
+  for (const char* value : {"a&#10;b", "a&#13;b"}) {
+    const auto bad = write_tmp("multiline_name.xml",
+                               std::string("<ParameterList name=\"granflow\">"
+                                           "<Parameter name=\"Name\" type=\"string\" value=\"") +
+                                   value + "\"/></ParameterList>");
+    try {
+      params::read_xml(bad);
+      FAIL() << value << " accepted";
+    } catch (const params::InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("parameter 'granflow->Name'"), std::string::npos) << what;
+      EXPECT_NE(what.find("contains a line break (at position 2)"), std::string::npos) << what;
+    }
+  }
 }
 
 TEST(StrictValues, ShippedScenesReadAsTeuchosReadsThem) {
