@@ -284,8 +284,9 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
   const bool per = cfg_.periodic_x();
   auto inside = [&](int gi) { return per || (gi >= 0 && gi < nx); };
   // The highest material cell of each column [-2, nxl + 1] (-1: none, and beyond a wall).
-  // Above it every rule below is the upward copy, done without looking at flags: most of the
-  // box is empty, and this function runs several times per step (10 % of a run before).
+  // Above it every rule below is the upward copy, done without looking at flags, as one fill
+  // of the column's tail: most of the box is empty, and this function runs several times per
+  // step (10 % of a run before the flags were skipped, 6 % at 1.3 mm before the fill).
   std::vector<int> top_of(static_cast<std::size_t>(nxl + 4), -1);
   for (int i = -2; i <= nxl + 1; ++i) {
     const int gi = mac_.slab.i0 + i;
@@ -332,30 +333,26 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
     const int gi = mac_.slab.i0 + i;
     if (!per && (gi < 0 || gi >= nx - 1)) continue;  // u: the boundary faces are set elsewhere
     const int kt = std::max(top(i), top(i + 1)) + 1;  // from here up: no material either side
-    for (int k = 0; k < nz; ++k) {
-      if (k > kt && k > 0) {
-        u(i, k) = u(i, k - 1);
-        continue;
-      }
+    const int k0 = std::min(std::max(kt + 1, 1), nz);  // the upward copy from k0 on
+    for (int k = 0; k < k0; ++k) {
       if (mac_.fluid(gi, k) || mac_.fluid(gi + 1, k)) continue;
       if (k > 0) u(i, k) = u(i, k - 1);
       else u(i, k) = (mac_.fluid(gi - 1, k) || mac_.fluid(gi, k)) ? u(i - 1, k) : 0.0;
     }
+    if (k0 < nz) std::fill(&u(i, k0), &u(i, k0) + (nz - k0), u(i, k0 - 1));
   }
   for (int i = -1; i <= nxl; ++i) {
     const int gi = mac_.slab.i0 + i;
     if (!inside(gi)) continue;
     const int kt = std::max({top(i - 1), top(i), top(i + 1)});  // above: no material around
-    for (int k = 0; k < nz - 1; ++k) {
-      if (k > kt && k > 0) {
-        w(i, k) = w(i, k - 1);
-        continue;
-      }
+    const int k0 = std::min(std::max(kt + 1, 1), nz - 1);  // the upward copy from k0 on
+    for (int k = 0; k < k0; ++k) {
       if (mac_.fluid(gi, k) || mac_.fluid(gi, k + 1)) continue;
       if (mac_.fluid(gi - 1, k) || mac_.fluid(gi - 1, k + 1)) w(i, k) = w(i - 1, k);
       else if (mac_.fluid(gi + 1, k) || mac_.fluid(gi + 1, k + 1)) w(i, k) = w(i + 1, k);
       else w(i, k) = k > 0 ? w(i, k - 1) : 0.0;
     }
+    if (k0 < nz - 1) std::fill(&w(i, k0), &w(i, k0) + (nz - 1 - k0), w(i, k0 - 1));
   }
 }
 

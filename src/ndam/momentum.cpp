@@ -265,7 +265,10 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   if (momentum_dt_ > 0.0 && (dt > 1.1 * momentum_dt_ || dt < momentum_dt_ / 1.1))
     momentum_->invalidate_preconditioner();
   const long long first = 2 * mac_.p_gid(mac_.slab.i0, 0);
-  std::vector<double> rhs(static_cast<std::size_t>(2 * nxl * nz)), x(rhs.size());
+  std::vector<double>& rhs = mom_rhs_;
+  std::vector<double>& x = mom_x_;
+  rhs.resize(static_cast<std::size_t>(2 * nxl * nz));
+  x.resize(rhs.size());
   for (int i = 0; i < nxl; ++i)
     for (int k = 0; k < nz; ++k) {
       const auto lr = static_cast<std::size_t>(2 * mac_.p_gid(mac_.slab.i0 + i, k) - first);

@@ -384,6 +384,9 @@ class NdamSolver final : public core::Stepper {
   long long fluid_cells_ = 0;
   std::unique_ptr<solvers::LinearSystem> pressure_, momentum_;
   double momentum_dt_ = -1.0;  // dt of the assembled momentum matrix (reused when unchanged)
+  // the momentum solve's right-hand side and solution, kept between steps (each step sets
+  // every entry; a fresh 2 nx nz vector per step was zeroed for nothing)
+  std::vector<double> mom_rhs_, mom_x_;
   solvers::SolveStats mom_stats_, p_stats_;
   double max_div_new_ = 0.0;   // max |div u| of the tentative state
 
