@@ -22,6 +22,7 @@ NdamSolver::Ref wall_ghost(const Wall& wl, NdamSolver::Ref r, double a, double b
   if (wl.kind == WallKind::Coulomb) {
     r.a *= a;
     r.b = a * r.b + b;
+    r.friction = true;
     return r;
   }
   const double s = wl.kind == WallKind::FreeSlip ? 1.0 : -1.0;

@@ -22,6 +22,7 @@ struct NdamSolver::Ref {
   long long gid = -1;
   std::size_t loc = 0;
   double a = 0.0, b = 0.0;
+  bool friction = false;  ///< through a Coulomb wall's ghost (changes with the friction factors)
 };
 
 namespace detail {

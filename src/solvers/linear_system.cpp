@@ -130,7 +130,12 @@ struct LinearSystem::Impl {
   std::vector<size_t> pre_start;
   std::vector<long long> pre_dest;
   std::vector<SC> pre_values;  // the repeat path's merged values (capacity kept)
+  std::vector<SC> cur_pre;     // the merged values of the current matrix (pre_start layout)
+  bool updating = false;       // begin_update() ... end_update()
   bool repeat_values(const std::string& type, std::vector<SC>& pre) const;
+  bool update_values(const std::string& type);
+  void install_values(const std::vector<SC>& pre);
+  std::string next_type() const;
   void update_staleness();
   double rebuild_preconditioner();  // a fresh one for A (counted); returns its setup seconds
   RCP<Matrix> A;
@@ -217,6 +222,29 @@ void LinearSystem::begin() {
   impl_->add_col.clear();
   impl_->add_val.clear();
   impl_->add_ascending = true;
+}
+
+void LinearSystem::begin_update() {
+  begin();
+  impl_->updating = true;
+}
+
+bool LinearSystem::end_update() {
+  auto& m = *impl_;
+  if (!m.updating) throw std::logic_error("LinearSystem::end_update without begin_update");
+  m.updating = false;
+  m.group_rows();
+  const int ok_local = m.update_values(m.next_type()) ? 1 : 0;
+  int ok = 0;
+  Teuchos::reduceAll<int, int>(*m.comm, Teuchos::REDUCE_MIN, ok_local, Teuchos::outArg(ok));
+  if (ok == 1) {
+    m.install_values(m.cur_pre);
+    return true;
+  }
+  // a rank that did apply its rows (the others refused) has to go back: its cur_pre changed,
+  // and the caller now assembles every row anew, so the record is dropped on every rank
+  m.rec_valid = false;
+  return false;
 }
 
 void LinearSystem::set_stiffness(double s) { impl_->stiffness = s; }
@@ -411,6 +439,60 @@ bool LinearSystem::Impl::repeat_values(const std::string& type, std::vector<SC>&
   return true;
 }
 
+// The preconditioner type of the matrix being assembled (the switch, if the list has one).
+std::string LinearSystem::Impl::next_type() const {
+  return params.isParameter("Stiff preconditioner") &&
+                 stiffness >= params.get<double>("Stiff threshold")
+             ? params.get<std::string>("Stiff preconditioner")
+             : params.get<std::string>("Preconditioner");
+}
+
+// New values (pre_start layout) on the current graph: a new matrix, so that the old one stays
+// intact for a lagged or held preconditioner that still refers to it.
+void LinearSystem::Impl::install_values(const std::vector<SC>& pre) {
+  for (size_t i = 0; i < trivial_diag.size(); ++i)
+    if (trivial_diag[i] != 0.0) trivial_diag[i] = pre[pre_start[i]];
+  Matrix::local_matrix_device_type::values_type v("A values", value_slot.size());
+  for (size_t q = 0; q < pre.size(); ++q)
+    if (pre_dest[q] >= 0) v(static_cast<size_t>(pre_dest[q])) = pre[q];
+  auto Anew = rcp(new Matrix(A->getCrsGraph(), v));
+  Anew->fillComplete(rmap, rmap);
+  A = Anew;
+  ++repeats;
+  update_staleness();
+}
+
+// The rows added since begin_update() replace theirs in cur_pre; each must add its sequence of
+// the last full assembly (the record), and a single-diagonal row must stay zero or nonzero.
+// Checks everything before it changes anything; false: nothing changed. Not collective.
+bool LinearSystem::Impl::update_values(const std::string& type) {
+  if (!rec_valid || A.is_null() || type != rec_type || cur_pre.size() != pre_start.back())
+    return false;
+  const size_t n = static_cast<size_t>(nlocal);
+  std::vector<std::pair<size_t, SC>> changes;
+  std::vector<SC> row;
+  for (size_t i = 0; i < n; ++i) {
+    const size_t g = grp_start[i], size = grp_start[i + 1] - g;
+    if (size == 0) continue;  // not updated
+    const size_t b = rec_start[i];
+    if (size != rec_start[i + 1] - b || !std::equal(gcol + g, gcol + g + size, rec_cols.begin() + static_cast<std::ptrdiff_t>(b)))
+      return false;
+    // the summation order of the full path (as repeat_values)
+    const size_t p0 = pre_start[i];
+    row.assign(pre_start[i + 1] - p0, 0.0);
+    for (size_t j = 0; j < size; ++j) {
+      const size_t d = rec_merged[b + j] - p0;
+      const double v = gval[g + rec_order[b + j]];
+      if (rec_first[b + j]) row[d] = v;
+      else row[d] += v;
+    }
+    if (rec_single[i] != 2 && (row[0] != 0.0) != (rec_single[i] == 1)) return false;
+    for (size_t d = 0; d < row.size(); ++d) changes.emplace_back(p0 + d, row[d]);
+  }
+  for (const auto& [d, v] : changes) cur_pre[d] = v;
+  return true;
+}
+
 // Rows are sorted and duplicates summed. When the sparsity pattern is the one of the previous
 // matrix (the usual case: only nu_eff or dt changed) the new matrix shares Tpetra's graph, and
 // a lagged preconditioner may be reused. Measured (docs/validation.md, "Speed"): assembly was a
@@ -421,10 +503,8 @@ void LinearSystem::end() {
   // The preconditioner of this matrix (the switch, if the list has one), and with it the
   // blocks of the Krylov system: MueLu's equations per node are kept whole, the one-level
   // preconditioners get exactly the coupled rows. The stiffness is the same on every rank.
-  const std::string type = m.params.isParameter("Stiff preconditioner") &&
-                                   m.stiffness >= m.params.get<double>("Stiff threshold")
-                               ? m.params.get<std::string>("Stiff preconditioner")
-                               : m.params.get<std::string>("Preconditioner");
+  if (m.updating) throw std::logic_error("LinearSystem::end after begin_update");
+  const std::string type = m.next_type();
   m.group_rows();
   {
     std::vector<SC>& pre = m.pre_values;
@@ -433,18 +513,9 @@ void LinearSystem::end() {
     Teuchos::reduceAll<int, int>(*m.comm, Teuchos::REDUCE_MIN, repeat_local,
                                  Teuchos::outArg(repeat_all));
     if (repeat_all == 1) {
-      // the same pattern, kept rows and trivial rows: new values on the old graph (the old
-      // matrix stays intact for a lagged preconditioner that still refers to it)
-      for (size_t i = 0; i < m.trivial_diag.size(); ++i)
-        if (m.trivial_diag[i] != 0.0) m.trivial_diag[i] = pre[m.pre_start[i]];
-      Matrix::local_matrix_device_type::values_type v("A values", m.value_slot.size());
-      for (size_t q = 0; q < pre.size(); ++q)
-        if (m.pre_dest[q] >= 0) v(static_cast<size_t>(m.pre_dest[q])) = pre[q];
-      auto A = rcp(new Matrix(m.A->getCrsGraph(), v));
-      A->fillComplete(m.rmap, m.rmap);
-      m.A = A;
-      ++m.repeats;
-      m.update_staleness();
+      // the same pattern, kept rows and trivial rows: new values on the old graph
+      m.install_values(pre);
+      std::swap(m.cur_pre, pre);
       return;
     }
   }
@@ -506,6 +577,7 @@ void LinearSystem::end() {
       m.rec_single[i] = vals[start[i]] != 0.0 ? 1 : 0;
   }
   m.pre_start = start;
+  m.cur_pre = vals;  // (compress_rows below reorders vals)
   const std::vector<LO> old_kept = m.kept;
   const GO old_rfirst = m.rfirst;
   m.prec_type = type;

@@ -291,6 +291,72 @@ TEST(LinearSystemAssembly, RowOrderAndEmptyIdentityRowsGiveTheSameSolution) {
   }
 }
 
+// An update (begin_update ... end_update) that adds some rows anew and keeps the others gives
+// the matrix of a full assembly to the last bit: the chain with its rows r % 7 == 3 rescaled,
+// updated on a persistent system, against a fresh system assembled in full. An update whose
+// rows do not fit (another column sequence on one rank) changes nothing, returns false on
+// every rank, and the full assembly after it gives the same solution again.
+TEST(LinearSystemAssembly, UpdatedRowsEqualAFullAssembly) {
+  int ranks = 1, rank = 0;
+  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  const int local = 40;
+  const long long total = static_cast<long long>(local) * ranks,
+                  first = static_cast<long long>(local) * rank;
+  const long long lo = 10, hi = total - 10;
+  // scale_of(r): the factor of row r; `only` adds just the rows r % 7 == 3
+  auto assemble = [&](LinearSystem& ls, double scale_changed, bool only, bool update,
+                      bool wrong = false) {
+    if (update) ls.begin_update();
+    else ls.begin();
+    for (long long r = first; r < first + local; ++r) {
+      const bool changed = r % 7 == 3;
+      if (only && !changed) continue;
+      const double s = changed ? scale_changed : 1.0;
+      if (r >= lo && r < hi) {
+        ls.add(r, r, 0.1 * s);
+        if (r + 1 < hi) ls.add(r, r + 1, -1.0 / 3.0 * s);
+        ls.add(r, r, 1.7 * s + 1e-3 * static_cast<double>(r));
+        if (r - 1 >= lo && !(wrong && rank == 0)) ls.add(r, r - 1, -1.0 / 7.0 * s);
+        ls.add(r, r, 0.3 / 11.0 * s);
+      } else {
+        ls.add(r, r, 2.0 * s);
+      }
+    }
+    if (!update) {
+      ls.end();
+      return true;
+    }
+    return ls.end_update();
+  };
+  for (const char* prec : {"Ifpack2 RELAXATION", "Ifpack2 RILUK"}) {
+    auto pl = *LinearSystem::getValidParameters("update", "GMRES", prec, 1e-12);
+    pl.set("Preconditioner reuse", 0);
+    LinearSystem persistent(MPI_COMM_WORLD, total, first, local, pl);
+    assemble(persistent, 1.0, false, false);
+    solve_chain(persistent, first, local);
+    EXPECT_TRUE(assemble(persistent, 1.9, true, true)) << prec;
+    const auto xu = solve_chain(persistent, first, local);
+    LinearSystem fresh(MPI_COMM_WORLD, total, first, local, pl);
+    assemble(fresh, 1.9, false, false);
+    const auto xf = solve_chain(fresh, first, local);
+    auto differ = [&](const std::vector<double>& a, const std::vector<double>& b) {
+      int d = std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) != 0, any = 0;
+      MPI_Allreduce(&d, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+      return any;
+    };
+    EXPECT_EQ(differ(xu, xf), 0) << prec << ": update against full assembly";
+    // the update changed the solution (the test sees a difference)
+    LinearSystem before(MPI_COMM_WORLD, total, first, local, pl);
+    assemble(before, 1.0, false, false);
+    EXPECT_EQ(differ(solve_chain(before, first, local), xf), 1) << prec;
+    // rows that do not fit on rank 0: refused everywhere; the full assembly after it
+    EXPECT_FALSE(assemble(persistent, 1.9, true, true, true)) << prec;
+    assemble(persistent, 1.9, false, false);
+    EXPECT_EQ(differ(solve_chain(persistent, first, local), xf), 0) << prec << ": after a refusal";
+  }
+}
+
 int main(int argc, char** argv) {
   Teuchos::GlobalMPISession mpi(&argc, &argv, nullptr);
   int rc = 0;

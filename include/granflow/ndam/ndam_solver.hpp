@@ -387,6 +387,12 @@ class NdamSolver final : public core::Stepper {
   // the momentum solve's right-hand side and solution, kept between steps (each step sets
   // every entry; a fresh 2 nx nz vector per step was zeroed for nothing)
   std::vector<double> mom_rhs_, mom_x_;
+  // the momentum rows that sample a Coulomb ghost (the friction's re-solves add only these)
+  struct FaceRow {
+    int i, k;
+    Comp c;
+  };
+  std::vector<FaceRow> friction_rows_;
   solvers::SolveStats mom_stats_, p_stats_;
   double max_div_new_ = 0.0;   // max |div u| of the tentative state
 

@@ -69,6 +69,15 @@ class LinearSystem {
   void add(long long row, long long col, double v);
   /// Finish the assembly (collective); the preconditioner is rebuilt at the next solve.
   void end();
+  /// An assembly that changes some rows of the last one and keeps the others: the rows added
+  /// between begin_update() and end_update() replace theirs, each with the sequence of
+  /// (row, column) additions it had in the last full assembly (the N-DAM's friction re-solve:
+  /// only the rows of the Coulomb faces change). end_update() is collective and returns false,
+  /// changing nothing but forcing the next end() to a full assembly, when any rank's rows do
+  /// not fit (another sequence, or the stiffness switch chose another preconditioner): the
+  /// caller then assembles every row with begin() ... end().
+  void begin_update();
+  bool end_update();
   /// Solve A x = b for the local parts of b and x; x holds the initial guess on entry.
   SolveStats solve(const std::vector<double>& b, std::vector<double>& x);
   /// The next solve sets up a new preconditioner (a restart point: a lagged preconditioner is
