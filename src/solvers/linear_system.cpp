@@ -133,6 +133,7 @@ struct LinearSystem::Impl {
   std::vector<SC> cur_pre;     // the merged values of the current matrix (pre_start layout)
   bool updating = false;       // begin_update() ... end_update()
   bool repeat_values(const std::string& type, std::vector<SC>& pre) const;
+  void merge_row(size_t i, const SC* added, SC* merged) const;
   bool update_values(const std::string& type);
   void install_values(const std::vector<SC>& pre);
   std::string next_type() const;
@@ -425,18 +426,24 @@ bool LinearSystem::Impl::repeat_values(const std::string& type, std::vector<SC>&
     return false;
   pre.assign(pre_start.back(), 0.0);
   for (size_t i = 0; i < n; ++i) {
-    const size_t b = rec_start[i], size = rec_start[i + 1] - b;
-    // the summation order of the full path: the sorted order, duplicates summed in it
-    for (size_t j = 0; j < size; ++j) {
-      const size_t d = rec_merged[b + j];
-      const double v = gval[b + rec_order[b + j]];
-      if (rec_first[b + j]) pre[d] = v;
-      else pre[d] += v;
-    }
-    if (size == 0) pre[pre_start[i]] = 1.0;  // a row without entries: an identity row
+    merge_row(i, gval + rec_start[i], pre.data() + pre_start[i]);
     if (rec_single[i] != 2 && (pre[pre_start[i]] != 0.0) != (rec_single[i] == 1)) return false;
   }
   return true;
+}
+
+// The merged entries of local row i (merged[0 ..]) from its values in the order they were
+// added (added[0 ..]; the record's sequence), summed in the order of the full path: the
+// sorted order, duplicates summed in it. A row without entries is an identity row.
+void LinearSystem::Impl::merge_row(size_t i, const SC* added, SC* merged) const {
+  const size_t b = rec_start[i], size = rec_start[i + 1] - b, p0 = pre_start[i];
+  for (size_t j = 0; j < size; ++j) {
+    const size_t d = rec_merged[b + j] - p0;
+    const double v = added[rec_order[b + j]];
+    if (rec_first[b + j]) merged[d] = v;
+    else merged[d] += v;
+  }
+  if (size == 0) merged[0] = 1.0;
 }
 
 // The preconditioner type of the matrix being assembled (the switch, if the list has one).
@@ -475,17 +482,12 @@ bool LinearSystem::Impl::update_values(const std::string& type) {
     const size_t g = grp_start[i], size = grp_start[i + 1] - g;
     if (size == 0) continue;  // not updated
     const size_t b = rec_start[i];
-    if (size != rec_start[i + 1] - b || !std::equal(gcol + g, gcol + g + size, rec_cols.begin() + static_cast<std::ptrdiff_t>(b)))
+    if (size != rec_start[i + 1] - b ||
+        !std::equal(gcol + g, gcol + g + size, rec_cols.begin() + static_cast<std::ptrdiff_t>(b)))
       return false;
-    // the summation order of the full path (as repeat_values)
     const size_t p0 = pre_start[i];
     row.assign(pre_start[i + 1] - p0, 0.0);
-    for (size_t j = 0; j < size; ++j) {
-      const size_t d = rec_merged[b + j] - p0;
-      const double v = gval[g + rec_order[b + j]];
-      if (rec_first[b + j]) row[d] = v;
-      else row[d] += v;
-    }
+    merge_row(i, gval + g, row.data());
     if (rec_single[i] != 2 && (row[0] != 0.0) != (rec_single[i] == 1)) return false;
     for (size_t d = 0; d < row.size(); ++d) changes.emplace_back(p0 + d, row[d]);
   }

@@ -107,7 +107,8 @@ class LinearSystem {
   /// Solves repeated with a fresh preconditioner because a kept one did not converge.
   long long preconditioner_retries() const;
   /// Assemblies that added the previous one's (row, column) sequence and took the repeat path
-  /// (values straight into their places; the matrix is the one a full assembly would give).
+  /// (values straight into their places; the matrix is the one a full assembly would give),
+  /// and updates that end_update() applied.
   long long repeat_assemblies() const;
 
   /// Valid list of one linear solver: `name` is the list's name, `solver` and `preconditioner`
