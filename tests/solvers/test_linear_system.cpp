@@ -237,27 +237,47 @@ TEST(LinearSystemRepeat, PersistentSystemEqualsFreshOnes) {
 // in ascending order with them empty, gives the same solution to the last bit (the entries of
 // a row keep their order, so the duplicates' sums do), in a first assembly and in a second one
 // with other values that takes the repeat path.
+namespace {
+// 40 rows per rank of a chain whose first and last 10 rows are trivial; row r of the chain
+// (lo <= r < hi) scaled by s, with duplicates on the diagonal (without its lower neighbour when
+// `lower` is false); differ(): whether two solutions differ on any rank.
+struct Chain {
+  static constexpr int local = 40;
+  long long total = 0, first = 0, lo = 10, hi = 0;
+  int rank = 0;
+  Chain() {
+    int ranks = 1;
+    MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    total = static_cast<long long>(local) * ranks;
+    first = static_cast<long long>(local) * rank;
+    hi = total - 10;
+  }
+  void add_row(LinearSystem& ls, long long r, double s, bool lower = true) const {
+    ls.add(r, r, 0.1 * s);
+    if (r + 1 < hi) ls.add(r, r + 1, -1.0 / 3.0 * s);
+    ls.add(r, r, 1.7 * s + 1e-3 * static_cast<double>(r));
+    if (r - 1 >= lo && lower) ls.add(r, r - 1, -1.0 / 7.0 * s);
+    ls.add(r, r, 0.3 / 11.0 * s);
+  }
+  static int differ(const std::vector<double>& a, const std::vector<double>& b) {
+    int d = std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) != 0, any = 0;
+    MPI_Allreduce(&d, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    return any;
+  }
+};
+}  // namespace
+
 TEST(LinearSystemAssembly, RowOrderAndEmptyIdentityRowsGiveTheSameSolution) {
-  int ranks = 1, rank = 0;
-  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  const int local = 40;
-  const long long total = static_cast<long long>(local) * ranks,
-                  first = static_cast<long long>(local) * rank;
-  const long long lo = 10, hi = total - 10;
+  const Chain ch;
+  const int local = Chain::local;
+  const long long first = ch.first, total = ch.total, lo = ch.lo, hi = ch.hi;
   auto assemble = [&](LinearSystem& ls, bool descending, bool empty_identity, double scale) {
     ls.begin();
     for (int q = 0; q < local; ++q) {
       const long long r = descending ? first + local - 1 - q : first + q;
-      if (r >= lo && r < hi) {
-        ls.add(r, r, 0.1 * scale);
-        if (r + 1 < hi) ls.add(r, r + 1, -1.0 / 3.0 * scale);
-        ls.add(r, r, 1.7 * scale + 1e-3 * static_cast<double>(r));
-        if (r - 1 >= lo) ls.add(r, r - 1, -1.0 / 7.0 * scale);
-        ls.add(r, r, 0.3 / 11.0 * scale);
-      } else if (!empty_identity) {
-        ls.add(r, r, 1.0);
-      }
+      if (r >= lo && r < hi) ch.add_row(ls, r, scale);
+      else if (!empty_identity) ls.add(r, r, 1.0);
     }
     ls.end();
   };
@@ -275,13 +295,9 @@ TEST(LinearSystemAssembly, RowOrderAndEmptyIdentityRowsGiveTheSameSolution) {
       EXPECT_EQ(ls.repeat_assemblies(), 1) << prec << ", variant " << v;
     }
     for (int v = 1; v < 3; ++v)
-      for (std::size_t a = 0; a < 2; ++a) {
-        int differ = std::memcmp(x[v][a].data(), x[0][a].data(),
-                                 x[0][a].size() * sizeof(double)) != 0,
-            any = 0;
-        MPI_Allreduce(&differ, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-        EXPECT_EQ(any, 0) << prec << ", variant " << v << ", assembly " << a;
-      }
+      for (std::size_t a = 0; a < 2; ++a)
+        EXPECT_EQ(Chain::differ(x[v][a], x[0][a]), 0)
+            << prec << ", variant " << v << ", assembly " << a;
     // the identity rows solve x = b
     const auto& xe = x[2][0];
     for (int i = 0; i < local; ++i) {
@@ -297,14 +313,10 @@ TEST(LinearSystemAssembly, RowOrderAndEmptyIdentityRowsGiveTheSameSolution) {
 // rows do not fit (another column sequence on one rank) changes nothing, returns false on
 // every rank, and the full assembly after it gives the same solution again.
 TEST(LinearSystemAssembly, UpdatedRowsEqualAFullAssembly) {
-  int ranks = 1, rank = 0;
-  MPI_Comm_size(MPI_COMM_WORLD, &ranks);
-  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-  const int local = 40;
-  const long long total = static_cast<long long>(local) * ranks,
-                  first = static_cast<long long>(local) * rank;
-  const long long lo = 10, hi = total - 10;
-  // scale_of(r): the factor of row r; `only` adds just the rows r % 7 == 3
+  const Chain ch;
+  const int local = Chain::local;
+  const long long first = ch.first, total = ch.total, lo = ch.lo, hi = ch.hi;
+  // the rows r % 7 == 3 scaled by scale_changed; `only`: just those rows
   auto assemble = [&](LinearSystem& ls, double scale_changed, bool only, bool update,
                       bool wrong = false) {
     if (update) ls.begin_update();
@@ -313,15 +325,8 @@ TEST(LinearSystemAssembly, UpdatedRowsEqualAFullAssembly) {
       const bool changed = r % 7 == 3;
       if (only && !changed) continue;
       const double s = changed ? scale_changed : 1.0;
-      if (r >= lo && r < hi) {
-        ls.add(r, r, 0.1 * s);
-        if (r + 1 < hi) ls.add(r, r + 1, -1.0 / 3.0 * s);
-        ls.add(r, r, 1.7 * s + 1e-3 * static_cast<double>(r));
-        if (r - 1 >= lo && !(wrong && rank == 0)) ls.add(r, r - 1, -1.0 / 7.0 * s);
-        ls.add(r, r, 0.3 / 11.0 * s);
-      } else {
-        ls.add(r, r, 2.0 * s);
-      }
+      if (r >= lo && r < hi) ch.add_row(ls, r, s, !(wrong && ch.rank == 0));
+      else ls.add(r, r, 2.0 * s);
     }
     if (!update) {
       ls.end();
@@ -340,11 +345,7 @@ TEST(LinearSystemAssembly, UpdatedRowsEqualAFullAssembly) {
     LinearSystem fresh(MPI_COMM_WORLD, total, first, local, pl);
     assemble(fresh, 1.9, false, false);
     const auto xf = solve_chain(fresh, first, local);
-    auto differ = [&](const std::vector<double>& a, const std::vector<double>& b) {
-      int d = std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) != 0, any = 0;
-      MPI_Allreduce(&d, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-      return any;
-    };
+    const auto differ = Chain::differ;
     EXPECT_EQ(differ(xu, xf), 0) << prec << ": update against full assembly";
     // the update changed the solution (the test sees a difference)
     LinearSystem before(MPI_COMM_WORLD, total, first, local, pl);
