@@ -242,8 +242,8 @@ bool LinearSystem::end_update() {
     m.install_values(m.cur_pre);
     return true;
   }
-  // a rank that did apply its rows (the others refused) has to go back: its cur_pre changed,
-  // and the caller now assembles every row anew, so the record is dropped on every rank
+  // some rank refused: cur_pre may hold new rows (on any rank), and the caller now assembles
+  // every row anew, so the record is dropped on every rank
   m.rec_valid = false;
   return false;
 }
@@ -471,13 +471,12 @@ void LinearSystem::Impl::install_values(const std::vector<SC>& pre) {
 
 // The rows added since begin_update() replace theirs in cur_pre; each must add its sequence of
 // the last full assembly (the record), and a single-diagonal row must stay zero or nonzero.
-// Checks everything before it changes anything; false: nothing changed. Not collective.
+// Not collective. On false, cur_pre may hold some of the new rows: end_update() then drops the
+// record on every rank, so the caller's full assembly rebuilds everything.
 bool LinearSystem::Impl::update_values(const std::string& type) {
   if (!rec_valid || A.is_null() || type != rec_type || cur_pre.size() != pre_start.back())
     return false;
   const size_t n = static_cast<size_t>(nlocal);
-  std::vector<std::pair<size_t, SC>> changes;
-  std::vector<SC> row;
   for (size_t i = 0; i < n; ++i) {
     const size_t g = grp_start[i], size = grp_start[i + 1] - g;
     if (size == 0) continue;  // not updated
@@ -485,13 +484,10 @@ bool LinearSystem::Impl::update_values(const std::string& type) {
     if (size != rec_start[i + 1] - b ||
         !std::equal(gcol + g, gcol + g + size, rec_cols.begin() + static_cast<std::ptrdiff_t>(b)))
       return false;
-    const size_t p0 = pre_start[i];
-    row.assign(pre_start[i + 1] - p0, 0.0);
-    merge_row(i, gval + g, row.data());
+    SC* row = cur_pre.data() + pre_start[i];
+    merge_row(i, gval + g, row);  // every merged entry of the row is written (its first sum)
     if (rec_single[i] != 2 && (row[0] != 0.0) != (rec_single[i] == 1)) return false;
-    for (size_t d = 0; d < row.size(); ++d) changes.emplace_back(p0 + d, row[d]);
   }
-  for (const auto& [d, v] : changes) cur_pre[d] = v;
   return true;
 }
 
