@@ -100,7 +100,7 @@ void NdamSolver::advect_markers(double dt) {
       inflow_held_new_ += given - to_owed;
     }
   }
-  if (const long long n = fill_marker_voids(*markers_new_); n > 0) {
+  if (const long long n = fill_marker_voids(*markers_new_, &marker_counts_new_); n > 0) {
     stats_.marker_void_fills += n;
     ++stats_.marker_void_steps;
   }
@@ -126,7 +126,8 @@ void NdamSolver::advect_markers(double dt) {
 // over the next steps. Not in a periodic box (the flood fill
 // does not wrap). Every rank has the counts of the whole box, so every rank finds the same
 // moves: the same on any number of ranks and across a restart.
-long long NdamSolver::fill_marker_voids(MarkerSet& m) const {
+long long NdamSolver::fill_marker_voids(MarkerSet& m, std::vector<double>* counts_out) const {
+  if (counts_out) counts_out->clear();
   if (!cfg_.fill_marker_voids || cfg_.periodic_x()) return 0;
   const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
   const auto counts = m.cell_counts();
@@ -136,6 +137,8 @@ long long NdamSolver::fill_marker_voids(MarkerSet& m) const {
   mac_.classify(all, flags, mask);
   const auto moves = void_fill_moves(all, flags, nx, nz, void_sides());
   m.relocate(moves);
+  // nothing moved (nearly every step): the step's flags follow from these counts
+  if (moves.empty() && counts_out) *counts_out = std::move(all);
   return static_cast<long long>(moves.size());
 }
 
@@ -162,10 +165,15 @@ void NdamSolver::update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
                               std::pair<double, int>* deepest) const {
   const auto counts = m.cell_counts();
   std::vector<double> local(counts.begin(), counts.end());
-  const auto all = mac_.gather_columns(local);
+  update_flags(mac_.gather_columns(local), m.marker_area(), flags, mask, depth, deepest);
+}
+
+void NdamSolver::update_flags(const std::vector<double>& all, double marker_area,
+                              std::vector<CellFlag>& flags, std::vector<std::uint8_t>& mask,
+                              std::vector<double>& depth, std::pair<double, int>* deepest) const {
   mac_.classify(all, flags, mask);
   const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
-  const double per_marker = m.marker_area() / cfg_.grid.dx();
+  const double per_marker = marker_area / cfg_.grid.dx();
   depth.assign(static_cast<std::size_t>(nx), 0.0);
   if (deepest) *deepest = {0.0, -1};
   for (int gi = 0; gi < nx; ++gi) {

@@ -397,8 +397,13 @@ void NdamSolver::step(double dt) {
     // clock, t^{n+1} - t^n (in floating point not always dt), so that positions and time agree.
     const auto tm = Clock::now();
     advect_markers(t_new_ - t_);
-    // 8. Fluid/Surface/Empty from the new markers
-    update_flags(*markers_new_, flags_new_, mask_new_, depth_new_, &deepest_new_);
+    // 8. Fluid/Surface/Empty from the new markers (from the counts the void filling took,
+    // when it moved no marker)
+    if (!marker_counts_new_.empty())
+      update_flags(marker_counts_new_, markers_new_->marker_area(), flags_new_, mask_new_,
+                   depth_new_, &deepest_new_);
+    else
+      update_flags(*markers_new_, flags_new_, mask_new_, depth_new_, &deepest_new_);
     stats_.step_markers = detail::seconds_since(tm);
   }
 }

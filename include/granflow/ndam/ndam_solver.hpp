@@ -262,9 +262,16 @@ class NdamSolver final : public core::Stepper {
   void update_flags(const MarkerSet& m, std::vector<CellFlag>& flags,
                     std::vector<std::uint8_t>& mask, std::vector<double>& depth,
                     std::pair<double, int>* deepest = nullptr) const;
+  /// The same from the gathered marker counts of the whole box (gi * nz + k) and the area of
+  /// one marker.
+  void update_flags(const std::vector<double>& counts, double marker_area,
+                    std::vector<CellFlag>& flags, std::vector<std::uint8_t>& mask,
+                    std::vector<double>& depth, std::pair<double, int>* deepest) const;
   /// Moves a marker into every enclosed void cell of m that has a neighbour (or, failing that,
   /// a cell of the second ring) with two or more (collective); returns the markers moved.
-  long long fill_marker_voids(MarkerSet& m) const;
+  /// When it moved none, `counts` (if given) gets the gathered marker counts of m it computed
+  /// (the flags of m follow from them), else is cleared.
+  long long fill_marker_voids(MarkerSet& m, std::vector<double>* counts = nullptr) const;
   /// The difference of p (ghosts filled) across face (c, i, k), the second cell's value minus
   /// the first's (divided by the spacing: the gradient); on a ghost face of the ghost-fluid
   /// surface the Empty cell's value is the ghost -p (1 - theta) / theta of p = 0 at the
@@ -382,6 +389,7 @@ class NdamSolver final : public core::Stepper {
   // projection
   long long pin_ = 0;        // pressure cell pinned to phi = 0 (the first fluid cell)
   long long fluid_cells_ = 0;
+  std::vector<double> marker_counts_new_;  // gathered counts of the tentative markers, if known
   std::unique_ptr<solvers::LinearSystem> pressure_, momentum_;
   double momentum_dt_ = -1.0;  // dt of the assembled momentum matrix (reused when unchanged)
   // the momentum solve's right-hand side and solution, kept between steps (each step sets
