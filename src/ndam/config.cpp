@@ -57,9 +57,26 @@ Teuchos::ParameterList NdamConfig::default_momentum_solver() {
   return pl;
 }
 
+// The pressure preconditioner switches on d, the distance in cells from the farthest pressure
+// unknown to a Dirichlet cell (projection.cpp, dirichlet_distance). MueLu's setup, in each step
+// whose free surface changed the pattern (nearly every step), costs about 6 ms for the 5000
+// unknowns of Setup II at 1.3 mm besides its 10 CG iterations; CG with SSOR (omega from d)
+// needs about 55 iterations at d = 47 there, at 0.1 ms each and no setup to speak of. A
+// flowing layer is solved faster without MueLu, a deep deposit (and a box without a free
+// surface, where d is unbounded) with it. Measurements: docs/validation.md, "Speed: the
+// pressure preconditioner by the distance to the free surface".
 Teuchos::ParameterList NdamConfig::default_pressure_solver() {
-  return *solvers::LinearSystem::getValidParameters("N-DAM->Pressure solver", "CG", "MueLu",
-                                                    1e-10);
+  constexpr double kDistanceThreshold = 64.0;
+  auto pl = *solvers::LinearSystem::getValidParameters("N-DAM->Pressure solver", "CG",
+                                                       "Ifpack2 RELAXATION", 1e-10);
+  solvers::LinearSystem::add_stiff_switch(
+      pl, "MueLu", kDistanceThreshold,
+      "d, the largest distance in cells (steps between face neighbours through pressure "
+      "unknowns) from a pressure unknown to a cell of given pressure (the free surface); 1e300 "
+      "without one (a closed box: the stiff preconditioner at any threshold). Below the "
+      "threshold Ifpack2 RELAXATION is SSOR with 'relaxation: damping factor' = "
+      "2 / (1 + 4.5 / d) unless the Ifpack2 sublist sets one");
+  return pl;
 }
 
 // The Newton solver of the pressure system: NonlinearSystem's list with the defaults that suit

@@ -47,6 +47,17 @@ void NdamSolver::assemble_pressure() {
       if (mac_.p_unknown(gi, k)) ++fluid_cells_;
   const double cx = 1.0 / (cfg_.grid.dx() * cfg_.grid.dx());
   const double cz = 1.0 / (cfg_.grid.dz() * cfg_.grid.dz());
+  // The preconditioner switch ('Stiff threshold' of the pressure solver): the farthest a
+  // pressure unknown lies from a Dirichlet cell, in cells (dirichlet_distance). Without a
+  // Dirichlet cell (a closed box, the pinned cell) the distance is unbounded.
+  // With symmetric Gauss-Seidel below the threshold: SSOR with omega = 2 / (1 + 4.5 / d),
+  // about the best omega measured on Setup II (CG iterations per solve 28 -> 22 at 5 mm,
+  // 53 -> 35 at 2.6 mm, 105 -> 55 at 1.3 mm against omega = 1; fixed omega 1.5 or 1.8 each
+  // lost 10-25 % at one of them).
+  const double d = dirichlet ? dirichlet_distance() : kUnbounded;
+  pressure_->set_stiffness(d);
+  if (d < kUnbounded) stats_.pressure_max_distance = std::max(stats_.pressure_max_distance, d);
+  pressure_->set_relaxation_damping(d < kUnbounded ? 2.0 / (1.0 + 4.5 / std::max(d, 1.0)) : 0.0);
   pressure_->begin();
   for (int i = 0; i < nxl; ++i) {
     const int gi = mac_.slab.i0 + i;
@@ -84,6 +95,67 @@ void NdamSolver::assemble_pressure() {
     }
   }
   pressure_->end();
+}
+
+// The largest graph distance, in cells (steps between face neighbours through pressure
+// unknowns), from a pressure unknown to the nearest cell whose value is given (a Surface or
+// Empty cell that is no unknown, the material of a Dirichlet inflow column); kUnbounded if an
+// unknown has none. It measures how hard the pressure system is for a one-level
+// preconditioner: the smallest eigenvalue of -L on a layer of d cells under a Dirichlet
+// surface is about (pi / 2 d)^2 / dz^2, so the condition number grows as d^2 and the
+// iterations of CG with symmetric Gauss-Seidel as d (Setup II to 0.75 s: at most d = 23 and 53
+// iterations per solve at 2.6 mm, d = 47 and 105 at 1.3 mm). A breadth-first search from all
+// those cells at once; the flags are the same on every rank, and so is the distance.
+double NdamSolver::dirichlet_distance() const {
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
+  const bool per = cfg_.periodic_x();
+  const std::size_t n = static_cast<std::size_t>(nx) * static_cast<std::size_t>(nz);
+  // Only material cells can be unknowns: the Empty air above the layer, most of the box, is
+  // skipped by its flag. The search starts from the unknowns next to a given cell (distance 1).
+  std::vector<int>& dist = dirichlet_dist_;
+  std::vector<int>& queue = dirichlet_queue_;
+  dist.assign(n, -1);  // -1: not an unknown or not reached; 0: an unknown not reached yet
+  queue.clear();
+  long long unknowns = 0;
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = 0; k < nz; ++k) {
+      const CellFlag f = mac_.flags[static_cast<std::size_t>(gi * nz + k)];
+      if ((f == CellFlag::Fluid || f == CellFlag::Surface) && mac_.p_unknown(gi, k)) {
+        dist[static_cast<std::size_t>(gi * nz + k)] = 0;
+        ++unknowns;
+      }
+    }
+  auto given = [&](int gn, int kn) {  // a neighbour whose pressure is given
+    return mac_.gflag(gn, kn) != CellFlag::Obstacle && !mac_.p_unknown(gn, kn);
+  };
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = 0; k < nz; ++k) {
+      const std::size_t c = static_cast<std::size_t>(gi * nz + k);
+      if (dist[c] != 0) continue;
+      if (given(gi + 1, k) || given(gi - 1, k) || given(gi, k + 1) || given(gi, k - 1)) {
+        dist[c] = 1;
+        queue.push_back(static_cast<int>(c));
+      }
+    }
+  int far = 0;
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const int c = queue[head], gi = c / nz, k = c % nz;
+    const int d = dist[static_cast<std::size_t>(c)];
+    far = std::max(far, d);
+    const int nbr[4][2] = {{gi + 1, k}, {gi - 1, k}, {gi, k + 1}, {gi, k - 1}};
+    for (const auto& g : nbr) {
+      int gn = g[0];
+      const int kn = g[1];
+      if (kn < 0 || kn >= nz) continue;
+      if (per) gn = (gn % nx + nx) % nx;
+      else if (gn < 0 || gn >= nx) continue;
+      const std::size_t q = static_cast<std::size_t>(gn * nz + kn);
+      if (dist[q] != 0) continue;  // not an unknown, or reached
+      dist[q] = d + 1;
+      queue.push_back(static_cast<int>(q));
+    }
+  }
+  return static_cast<long long>(queue.size()) < unknowns ? kUnbounded : static_cast<double>(far);
 }
 
 // One predictor-projection from the state at t^n with the current nu_eff and friction factors:
@@ -261,6 +333,8 @@ void NdamSolver::solve_pressure(double dt, const Field& us, const Field& ws, Fie
   p_stats_ = pressure_->solve(rhs, x);
   ++stats_.pressure_solves;
   stats_.pressure_iterations += p_stats_.iterations;
+  if (p_stats_.stiff) ++stats_.pressure_stiff_solves;
+  stats_.pressure_max_iterations = std::max(stats_.pressure_max_iterations, p_stats_.iterations);
   stats_.worst_pressure_residual = std::max(stats_.worst_pressure_residual, p_stats_.residual);
   if (!p_stats_.converged) ++stats_.unconverged_solves;
   phi = Field(nxl, nz);

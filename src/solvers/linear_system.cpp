@@ -164,6 +164,7 @@ struct LinearSystem::Impl {
   // stiffness the model set for the next assembly.
   std::string prec_type, built_type;
   double stiffness = 0.0;
+  double relax_damping = 0.0;  // set_relaxation_damping (0: Ifpack2's default, 1)
   void compress_rows(std::vector<size_t>& start, std::vector<GO>& cols, std::vector<SC>& vals);
   RCP<MueLu::HierarchyManager<SC, LO, GO, Map::node_type>> muelu;  // cached interpreter
   long long pattern_builds = 0;     // graphs built (the pattern changed)
@@ -249,6 +250,7 @@ bool LinearSystem::end_update() {
 }
 
 void LinearSystem::set_stiffness(double s) { impl_->stiffness = s; }
+void LinearSystem::set_relaxation_damping(double omega) { impl_->relax_damping = omega; }
 
 void LinearSystem::add(long long row, long long col, double v) {
   const long long lr = row - impl_->first;
@@ -711,7 +713,8 @@ class FreshLevelsInterpreter : public MueLuInterpreter {
 // N-DAM chute's run time at 5 mm (a new preconditioner in every step). The same interpreter sets
 // up each new hierarchy, as CreateXpetraPreconditioner does with a fresh one.
 RCP<OP> build_preconditioner(const RCP<Matrix>& A, const std::string& type,
-                             const ParameterList& p, RCP<MueLuManager>& manager) {
+                             const ParameterList& p, RCP<MueLuManager>& manager,
+                             double damping = 0.0) {
   if (type == "None") return Teuchos::null;
   if (type == "MueLu") {
     if (manager.is_null()) {
@@ -740,6 +743,9 @@ RCP<OP> build_preconditioner(const RCP<Matrix>& A, const std::string& type,
     rp.set("relaxation: type", "Symmetric Gauss-Seidel");
     for (auto it = ip.begin(); it != ip.end(); ++it)
       if (ip.name(it).rfind("relaxation:", 0) == 0) rp.setEntry(ip.name(it), ip.entry(it));
+    // the model's damping factor (set_relaxation_damping) unless the list gives one
+    if (damping > 0.0 && !rp.isParameter("relaxation: damping factor"))
+      rp.set("relaxation: damping factor", damping);
     ip = rp;
   }
   P->setParameters(ip);
@@ -751,7 +757,7 @@ RCP<OP> build_preconditioner(const RCP<Matrix>& A, const std::string& type,
 
 double LinearSystem::Impl::rebuild_preconditioner() {
   const auto t0 = Clock::now();
-  prec = build_preconditioner(A, prec_type, params, muelu);
+  prec = build_preconditioner(A, prec_type, params, muelu, relax_damping);
   built_type = prec_type;
   prec_stale = false;
   prec_age = 0;

@@ -32,6 +32,7 @@ struct FsCase {
   double x0 = 0.0;  // grid origin along the slope (NdamConfig::x0, as a 2D subdomain has)
   std::string surface_mass = "Full cell";  // 'Surface cell mass' ("Material share")
   std::string surface_pressure = "Surface cells";  // 'Surface pressure' ("Ghost fluid")
+  double pressure_threshold = -1.0;  // 'Pressure solver->Stiff threshold' when >= 0
 };
 
 /// The box of `c`; from `state` (NdamSolver's state constructor) when one is given.
@@ -64,6 +65,8 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   const char* sides[4] = {"Left", "Right", "Bottom", "Top"};
   for (int s = 0; s < 4; ++s) b.set(sides[s], c.walls[static_cast<std::size_t>(s)]);
   for (const char* sv : {"Momentum solver", "Pressure solver"}) n.sublist(sv).set("Tolerance", 1e-10);
+  if (c.pressure_threshold >= 0.0)
+    n.sublist("Pressure solver").set("Stiff threshold", c.pressure_threshold);
   const Teuchos::ParameterList user = n;
   params::validate_and_set_defaults(n, *ndam::NdamConfig::getValidParameters(), "test");
 

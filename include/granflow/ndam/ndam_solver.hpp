@@ -301,6 +301,10 @@ class NdamSolver final : public core::Stepper {
   void fall_droplets(double dt, Field& us, Field& ws) const;  // Surface cells empty all round
   // --- projection.cpp: the pressure projection (eqs. 10, 14) ----------------------------------
   void assemble_pressure();
+  /// The farthest a pressure unknown lies from a Dirichlet cell, in cells (projection.cpp):
+  /// the stiffness of the pressure preconditioner switch; kUnbounded without one.
+  double dirichlet_distance() const;
+  static constexpr double kUnbounded = 1e300;
   void project(double dt);  // predictor, projection, pressure update into *_new_ (timed)
   void solve_pressure(double dt, const Field& us, const Field& ws, Field& phi);
   void correct_velocity(double dt, const Field& phi, Field& us, Field& ws) const;
@@ -389,6 +393,7 @@ class NdamSolver final : public core::Stepper {
   // projection
   long long pin_ = 0;        // pressure cell pinned to phi = 0 (the first fluid cell)
   long long fluid_cells_ = 0;
+  mutable std::vector<int> dirichlet_dist_, dirichlet_queue_;  // dirichlet_distance's work space
   std::vector<double> marker_counts_new_;  // gathered counts of the tentative markers, if known
   std::unique_ptr<solvers::LinearSystem> pressure_, momentum_;
   double momentum_dt_ = -1.0;  // dt of the assembled momentum matrix (reused when unchanged)

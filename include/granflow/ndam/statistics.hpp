@@ -14,6 +14,11 @@ struct NdamStatistics {
   // linear solves (Belos): pressure projection and implicit momentum predictor
   long long pressure_solves = 0, pressure_iterations = 0;
   long long momentum_solves = 0, momentum_iterations = 0;
+  // pressure solves with the stiff preconditioner (MueLu from 'Stiff threshold' on), the most
+  // iterations of one, and the largest distance d (cells) from an unknown to the free surface
+  long long pressure_stiff_solves = 0;
+  int pressure_max_iterations = 0;
+  double pressure_max_distance = 0.0;
   // momentum solves with the stiff preconditioner ('Stiff threshold') and their iterations;
   // the most iterations of one momentum solve, and of one with the stiff preconditioner
   long long momentum_stiff_solves = 0, momentum_stiff_iterations = 0;
@@ -69,6 +74,9 @@ struct NdamStatistics {
     momentum_solves += o.momentum_solves;
     momentum_iterations += o.momentum_iterations;
     momentum_stiff_solves += o.momentum_stiff_solves;
+    pressure_stiff_solves += o.pressure_stiff_solves;
+    pressure_max_iterations = std::max(pressure_max_iterations, o.pressure_max_iterations);
+    pressure_max_distance = std::max(pressure_max_distance, o.pressure_max_distance);
     momentum_stiff_iterations += o.momentum_stiff_iterations;
     momentum_max_iterations = std::max(momentum_max_iterations, o.momentum_max_iterations);
     momentum_stiff_max_iterations =

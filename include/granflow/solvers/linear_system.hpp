@@ -63,6 +63,11 @@ class LinearSystem {
   /// else "Preconditioner". Must be the same on every rank (the choice is collective). Kept
   /// until the next call; without any call the stiffness is 0.
   void set_stiffness(double s);
+  /// The damping factor omega of the next "Ifpack2 RELAXATION" preconditioners built, unless
+  /// the Ifpack2 sublist gives "relaxation: damping factor" itself: symmetric Gauss-Seidel
+  /// becomes SSOR(omega), whose best omega approaches 2 as the problem grows (the N-DAM
+  /// pressure: omega from the distance to the free surface). 0 (the default): Ifpack2's 1.
+  void set_relaxation_damping(double omega);
   /// Add v to A(row, col); row must be locally owned; duplicates are summed. A row that gets
   /// no entry in an assembly is an identity row (x = b there): the models leave the rows of
   /// fixed faces and of cells without material empty, most rows of a chute's box.
