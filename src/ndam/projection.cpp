@@ -103,9 +103,9 @@ void NdamSolver::assemble_pressure() {
 // unknown has none. It measures how hard the pressure system is for a one-level
 // preconditioner: the smallest eigenvalue of -L on a layer of d cells under a Dirichlet
 // surface is about (pi / 2 d)^2 / dz^2, so the condition number grows as d^2 and the
-// iterations of CG with symmetric Gauss-Seidel as d (Setup II to 0.75 s: at most d = 23 and 53
-// iterations per solve at 2.6 mm, d = 47 and 105 at 1.3 mm). A breadth-first search from all
-// those cells at once; the flags are the same on every rank, and so is the distance.
+// iterations of CG with symmetric Gauss-Seidel grow with d (Setup II to 0.75 s: at most d = 23
+// and 53 iterations per solve at 2.6 mm, d = 47 and 105 at 1.3 mm). A breadth-first search from
+// all those cells at once; the flags are the same on every rank, and so is the distance.
 double NdamSolver::dirichlet_distance() const {
   const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
   const bool per = cfg_.periodic_x();
