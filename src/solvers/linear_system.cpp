@@ -991,6 +991,16 @@ void trial_build(const ParameterList& p, const std::string& type) {
     params::fail(p.sublist("Ifpack2"), "fact: iluk level-of-fill",
                  std::to_string(p.sublist("Ifpack2").get<int>("fact: iluk level-of-fill")),
                  "the level of fill of the incomplete LU; allowed: an integer >= 0");
+  // A damping factor outside (0, 2) makes (symmetric) Gauss-Seidel diverge or, at 0, divide
+  // by zero; Ifpack2 takes it without a word (found when the N-DAM pressure made relaxation
+  // its default)
+  if (type == "Ifpack2 RELAXATION" && p.isSublist("Ifpack2") &&
+      p.sublist("Ifpack2").isType<double>("relaxation: damping factor")) {
+    const double w = p.sublist("Ifpack2").get<double>("relaxation: damping factor");
+    if (!(w > 0.0 && w < 2.0))
+      params::fail(p.sublist("Ifpack2"), "relaxation: damping factor", params::str(w),
+                   "the relaxation's damping factor omega; allowed: 0 < omega < 2");
+  }
   if (!mpi) return;
   const auto comm = rcp(new Teuchos::MpiComm<int>(MPI_COMM_SELF));
   constexpr int n = 12;

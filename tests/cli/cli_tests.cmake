@@ -69,6 +69,8 @@ granflow_cli_test(series_is_a_device 2 "Inflow series file' = /dev/zero: not a r
 # the MueLu and Ifpack2 lists pass through to Trilinos: built once at input on a model matrix
 granflow_cli_test(muelu_bad_smoother 2 "Pressure solver->MueLu' = \\{...\\}: the MueLu preconditioner cannot be built.*does not provide the smoother 'BOGUS'"
                   --check ${_cli}/bad_muelu_bogus.xml)
+granflow_cli_test(ifpack2_bad_damping 2 "Pressure solver->Ifpack2->relaxation: damping factor' = 0: .*allowed: 0 < omega < 2"
+                  --check ${_cli}/bad_ifpack2_damping.xml)
 granflow_cli_test(ifpack2_negative_fill 2 "Momentum solver->Ifpack2->fact: iluk level-of-fill' = -1: .*allowed: an integer >= 0"
                   --check ${_cli}/bad_ifpack2_fill.xml)
 granflow_cli_test(dry_depth_above_gate 2 "DAM->Dry depth' = 0.01: cells shallower than it do not move, and the gate's opening is only 0.06 m deep.*allowed: < 0.006 m"
