@@ -472,9 +472,10 @@ std::vector<double> MarkerSet::depth() const {
   return h;
 }
 
-ColumnProfile MarkerSet::profile(const Field& u, const Field& w) const {
+ColumnProfile MarkerSet::profile(const Field& u, const Field& w,
+                                 const std::vector<double>* h) const {
   ColumnProfile p;
-  p.h = depth();
+  p.h = h ? *h : depth();
   const int nxl = slab_.nx_local, nz = grid_.nz;
   p.x.resize(p.h.size());
   p.u_mean.assign(p.h.size(), 0.0);

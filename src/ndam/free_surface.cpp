@@ -364,9 +364,17 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
   }
 }
 
-void NdamSolver::update_profile_cache() {
+void NdamSolver::update_profile_cache(bool flag_depths) {
   if (!markers_) return;
-  const auto cp = markers_->profile(u_, w_);
+  // mac_.depth (every column) is n a / dx with n the column's marker count: MarkerSet::depth's
+  // Count method to the last bit, so accept() does not count the markers a third time
+  std::vector<double> h;
+  const bool reuse = flag_depths && markers_->config().depth == DepthMethod::Count &&
+                     mac_.depth.size() == static_cast<std::size_t>(cfg_.grid.nx);
+  if (reuse)
+    h.assign(mac_.depth.begin() + mac_.slab.i0,
+             mac_.depth.begin() + mac_.slab.i0 + mac_.slab.nx_local);
+  const auto cp = markers_->profile(u_, w_, reuse ? &h : nullptr);
   std::vector<double> local;
   for (std::size_t c = 0; c < cp.h.size(); ++c) {
     local.push_back(cp.h[c]);

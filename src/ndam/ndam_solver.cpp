@@ -528,7 +528,7 @@ void NdamSolver::accept() {
     t_ = t_new_;
     if (cfg_.inflow) inflow_now_ = cfg_.inflow(t_);
     fill_velocity_ghosts(u_, w_);
-    update_profile_cache();
+    update_profile_cache(true);  // the depths of the flag update of these markers
     stats_.step_markers += detail::seconds_since(tm);
   }
   stats_.accept_times();

@@ -193,8 +193,10 @@ class MarkerSet {
   /// Depth and the depth averages (eq. 21) u_mean = 1/h int_0^h u dz, likewise w_mean, of each
   /// owned column at its centre x. u and w at the cell centre are the means of the two faces;
   /// the integral takes full cells below h and the fraction (h - k dz) / dz of the cell
-  /// containing h. Columns with h = 0 report 0.
-  ColumnProfile profile(const Field& u, const Field& w) const;
+  /// containing h. Columns with h = 0 report 0. `h`, if given, is depth() of these markers
+  /// (the owned columns), already known to the caller: it is not counted again.
+  ColumnProfile profile(const Field& u, const Field& w,
+                        const std::vector<double>* h = nullptr) const;
   /// Global counts and areas (collective).
   MarkerMass mass() const;
   long long global_count() const;

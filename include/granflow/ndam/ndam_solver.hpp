@@ -277,7 +277,9 @@ class NdamSolver final : public core::Stepper {
   /// surface the Empty cell's value is the ghost -p (1 - theta) / theta of p = 0 at the
   /// surface, theta of the spacing from the unknown's centre.
   double pressure_difference(const Field& p, Comp c, int i, int k) const;
-  void update_profile_cache();
+  /// The column profiles of the current markers (col_h_, col_u_, col_w_; collective); with
+  /// `flag_depths` the depths come from mac_.depth, the flag update's count of these markers.
+  void update_profile_cache(bool flag_depths = false);
   // --- viscosity.cpp (eqs. 4-6) ---------------------------------------------------------------
   void update_viscosity(const Field& p_yield);
   // --- momentum.cpp: the predictor (eqs. 8-9) ---------------------------------------------------
