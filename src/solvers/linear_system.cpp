@@ -36,6 +36,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <stdexcept>
@@ -100,28 +101,36 @@ struct LinearSystem::Impl {
   // Assembly buffer: the triplets in the order they were added, in three flat arrays
   // (capacity kept between assemblies), and the same entries grouped by local row in their
   // order of addition (group_rows). A buffer per row (one vector each) cost a cache miss per
-  // row: the N-DAM adds one identity row for every face and cell of the box without material,
-  // ten for each material row, and the per-row buffers were a fifth of the 1.3 mm chute.
+  // row, and so did every pass over all local rows: the N-DAM leaves the rows of fixed faces
+  // and of cells without material empty (identity rows), at 1.3 mm about 178 000 rows of the
+  // momentum box against 10 000 with entries. So the assembly, the record, the compression
+  // and the solve's copies work on the rows that got entries and on the kept rows only; a row
+  // without entries costs nothing but its copy x = b in solve().
   std::vector<LO> add_row;
   std::vector<GO> add_col;
   std::vector<SC> add_val;
   bool add_ascending = true;       // rows added in non-decreasing order (the models do)
-  std::vector<size_t> grp_start;   // CSR offsets of the grouped entries
+  std::vector<LO> grp_rows;        // the rows that got entries, ascending
+  std::vector<size_t> grp_start;   // CSR offsets of their grouped entries (grp_rows.size() + 1)
   std::vector<GO> grp_col;         // grouped columns and values when the rows came unordered
   std::vector<SC> grp_val;
+  std::vector<size_t> grp_perm;
   const GO* gcol = nullptr;        // the grouped entries (add_* themselves when ascending)
   const SC* gval = nullptr;
   void group_rows();
   std::vector<size_t> row_start;  // pattern of the current matrix (CSR offsets, columns)
   std::vector<GO> pattern;
   std::vector<size_t> value_slot;  // where each entry of the pattern sits in Tpetra's values
-  // Emission record of the last full assembly (repeat_values): per local row the columns in
-  // the order they were added, the sorted order of those entries, the merged entry each one
-  // is summed into (and whether it is the first of its sum), whether the row is a single
-  // diagonal entry (2: no; 1: nonzero; 0: zero), the merged CSR offsets before compression
-  // (pre_start), and per merged entry its place in Tpetra's values (-1: a trivial row).
+  // Emission record of the last full assembly (repeat_values), per row with entries (rec_rows;
+  // rec_index: a local row's place in it, -1 for a row without entries): the columns in the
+  // order they were added, the sorted order of those entries, the merged entry each one is
+  // summed into (and whether it is the first of its sum), whether the row is a single diagonal
+  // entry (2: no; 1: nonzero; 0: zero), the merged CSR offsets (pre_start), and per merged
+  // entry its place in Tpetra's values (-1: a trivial row).
   bool rec_valid = false;
   std::string rec_type;
+  std::vector<LO> rec_rows;
+  std::vector<int> rec_index;  // nlocal entries; set for rec_rows, reset when they change
   std::vector<size_t> rec_start;
   std::vector<GO> rec_cols;
   std::vector<std::uint32_t> rec_order;
@@ -133,7 +142,7 @@ struct LinearSystem::Impl {
   std::vector<SC> cur_pre;     // the merged values of the current matrix (pre_start layout)
   bool updating = false;       // begin_update() ... end_update()
   bool repeat_values(const std::string& type, std::vector<SC>& pre) const;
-  void merge_row(size_t i, const SC* added, SC* merged) const;
+  void merge_row(size_t a, const SC* added, SC* merged) const;
   bool update_values(const std::string& type);
   void install_values(const std::vector<SC>& pre);
   std::string next_type() const;
@@ -147,14 +156,20 @@ struct LinearSystem::Impl {
   int last_iters = 0;
   bool last_converged = true;
   bool held = false;  // hold_preconditioner(): keep it over assemblies while it is effective
-  // Trivial rows (a single nonzero diagonal entry, not referenced by another row: identity rows
-  // of fixed faces, Dirichlet and empty cells) are solved as x = b / d and left out of the
-  // Krylov system, which then holds only the coupled rows (in the N-DAM chute: the cells with
-  // material). rmap numbers the kept rows contiguously, rank by rank.
+  // Trivial rows (no entries: identity rows of fixed faces and cells without material; or a
+  // single nonzero diagonal entry, as Dirichlet rows) that no other row references are solved
+  // as x = b / d and left out of the Krylov system, which then holds only the coupled rows (in
+  // the N-DAM chute: the cells with material). rmap numbers the kept rows contiguously, rank by
+  // rank. A row without entries that the system must keep (referenced, or in a MueLu block with
+  // a kept row) enters it as an identity row.
   MPI_Comm raw_comm = MPI_COMM_NULL;
   std::vector<GO> rank_first;       // first global row of each rank, and the total at the end
   std::vector<LO> kept;             // local rows in the Krylov system, ascending
-  std::vector<SC> trivial_diag;     // per local row: d of a trivial row, 0 for a kept row
+  std::vector<int> kept_rec;        // per kept row: its place in rec_rows, -1 (no entries)
+  std::vector<GO> kept_id;          // nlocal entries: a kept row's index in rmap, else -1
+  std::vector<size_t> one_slots;    // Tpetra value slots of the kept rows without entries
+  std::vector<int> triv_rec;        // trivial rows with an entry (places in rec_rows) ...
+  std::vector<SC> triv_d;           // ... and their diagonal d
   RCP<const Map> rmap;              // map of the kept rows
   GO rfirst = 0;                    // first global index of this rank's kept rows in rmap
   GO rglobal = 0;                   // kept rows on all ranks
@@ -165,7 +180,8 @@ struct LinearSystem::Impl {
   std::string prec_type, built_type;
   double stiffness = 0.0;
   double relax_damping = 0.0;  // set_relaxation_damping (0: Ifpack2's default, 1)
-  void compress_rows(std::vector<size_t>& start, std::vector<GO>& cols, std::vector<SC>& vals);
+  void compress_rows(const std::vector<GO>& cols, const std::vector<SC>& vals,
+                     std::vector<size_t>& kstart, std::vector<GO>& kcols, std::vector<SC>& kvals);
   RCP<MueLu::HierarchyManager<SC, LO, GO, Map::node_type>> muelu;  // cached interpreter
   long long pattern_builds = 0;     // graphs built (the pattern changed)
   long long repeats = 0;            // assemblies that took the repeat path
@@ -203,6 +219,9 @@ LinearSystem::LinearSystem(MPI_Comm comm, long long global_rows, long long first
   MPI_Allgather(&my_first, 1, MPI_LONG_LONG, firsts.data(), 1, MPI_LONG_LONG, comm);
   m.rank_first.assign(firsts.begin(), firsts.end());
   m.rank_first.push_back(global_rows);
+  m.rec_index.assign(static_cast<size_t>(local_rows), -1);
+  m.kept_id.assign(static_cast<size_t>(local_rows), -1);
+  m.grp_start.assign(1, 0);
 }
 
 LinearSystem::~LinearSystem() = default;
@@ -270,60 +289,100 @@ void LinearSystem::add(long long row, long long col, double v) {
   m.add_val.push_back(v);
 }
 
+namespace {
+// Room for `need` elements; beyond the capacity it grows by an eighth, not by doubling (a
+// steady run's emission count wanders by a per cent, and a doubled buffer would be a step in
+// its resident set; cli.memory_steady_run).
+template <class V>
+void reserve_eighth(V& v, size_t need) {
+  if (need > v.capacity()) v.reserve(need + need / 8);
+}
+}  // namespace
+
 // Groups the added triplets by local row, keeping their order of addition within a row (the
-// order of summation of duplicates): CSR offsets from the row counts, and, when the rows came
-// in any order, a stable scatter into grp_col / grp_val.
+// order of summation of duplicates): the rows that got entries and their CSR offsets, and,
+// when the rows came in any order, a stable sort of the triplets by row into grp_col /
+// grp_val. Work in the number of triplets, none per row without entries.
 void LinearSystem::Impl::group_rows() {
-  const size_t n = static_cast<size_t>(nlocal), added = add_row.size();
-  grp_start.assign(n + 1, 0);
-  for (LO r : add_row) ++grp_start[static_cast<size_t>(r) + 1];
-  for (size_t i = 0; i < n; ++i) grp_start[i + 1] += grp_start[i];
-  if (add_ascending) {
+  const size_t added = add_row.size();
+  const LO* rows = add_row.data();
+  if (!add_ascending) {
+    grp_perm.resize(added);
+    for (size_t q = 0; q < added; ++q) grp_perm[q] = q;
+    std::stable_sort(grp_perm.begin(), grp_perm.end(),
+                     [&](size_t x, size_t y) { return add_row[x] < add_row[y]; });
+    reserve_eighth(grp_col, added);
+    reserve_eighth(grp_val, added);
+    grp_col.resize(added);
+    grp_val.resize(added);
+    std::vector<LO> sorted(added);
+    for (size_t q = 0; q < added; ++q) {
+      grp_col[q] = add_col[grp_perm[q]];
+      grp_val[q] = add_val[grp_perm[q]];
+      sorted[q] = add_row[grp_perm[q]];
+    }
+    grp_perm.assign(sorted.begin(), sorted.end());  // (reused below as the sorted rows)
+    gcol = grp_col.data();
+    gval = grp_val.data();
+  } else {
     gcol = add_col.data();
     gval = add_val.data();
-    return;
   }
-  grp_col.resize(added);
-  grp_val.resize(added);
-  std::vector<size_t> pos(grp_start.begin(), grp_start.end() - 1);
-  for (size_t q = 0; q < added; ++q) {
-    const size_t d = pos[static_cast<size_t>(add_row[q])]++;
-    grp_col[d] = add_col[q];
-    grp_val[d] = add_val[q];
-  }
-  gcol = grp_col.data();
-  gval = grp_val.data();
+  auto row_at = [&](size_t q) {
+    return add_ascending ? rows[q] : static_cast<LO>(grp_perm[q]);
+  };
+  size_t distinct = 0;
+  for (size_t q = 0; q < added; ++q)
+    if (q == 0 || row_at(q) != row_at(q - 1)) ++distinct;
+  reserve_eighth(grp_rows, distinct);
+  reserve_eighth(grp_start, distinct + 1);
+  grp_rows.clear();
+  grp_start.clear();
+  for (size_t q = 0; q < added; ++q)
+    if (q == 0 || row_at(q) != row_at(q - 1)) {
+      grp_rows.push_back(row_at(q));
+      grp_start.push_back(q);
+    }
+  grp_start.push_back(added);
 }
 
-// Splits the assembled rows (CSR in the original numbering) into trivial rows and the kept
-// rows, and renumbers the kept rows and their columns for rmap. A trivial row that another row
-// references stays in the system (its coupling is not moved to the right-hand side); the
-// models move such couplings to the right-hand side themselves, so this does not happen in
-// the N-DAM and is only a safeguard. Collective.
-void LinearSystem::Impl::compress_rows(std::vector<size_t>& start, std::vector<GO>& cols,
-                                       std::vector<SC>& vals) {
-  const size_t n = static_cast<size_t>(nlocal);
-  trivial_diag.assign(n, 0.0);
-  std::vector<char> keep(n, 1);
-  for (size_t i = 0; i < n; ++i)
-    if (start[i + 1] - start[i] == 1 && cols[start[i]] == first + static_cast<GO>(i) &&
-        vals[start[i]] != 0.0) {
-      keep[i] = 0;
-      trivial_diag[i] = vals[start[i]];
-    }
-  // References to trivial rows: local ones directly, remote ones by asking their owners.
+// Splits the assembled rows (merged CSR per row with entries, pre_start layout, in the original
+// numbering) into trivial rows and the kept rows, and writes the kept rows with their columns
+// renumbered for rmap (kstart, kcols, kvals; a kept row without entries as an identity row).
+// A trivial row that another row references stays in the system (its coupling is not moved to
+// the right-hand side); the models move such couplings to the right-hand side themselves, so
+// this does not happen in the N-DAM and is only a safeguard. Under MueLu with b equations per
+// node a block of b rows stays whole (the N-DAM momentum: the w face of a cell whose u face is
+// an unknown). Collective. Work in the rows with entries and the kept rows.
+void LinearSystem::Impl::compress_rows(const std::vector<GO>& cols, const std::vector<SC>& vals,
+                                       std::vector<size_t>& kstart, std::vector<GO>& kcols,
+                                       std::vector<SC>& kvals) {
+  const size_t na = rec_rows.size();
+  for (LO r : kept) kept_id[static_cast<size_t>(r)] = -1;  // the last assembly's
+  std::vector<char> triv(na, 0);
+  for (size_t a = 0; a < na; ++a) {
+    const size_t p = pre_start[a];
+    triv[a] = pre_start[a + 1] - p == 1 && cols[p] == first + rec_rows[a] && vals[p] != 0.0;
+  }
+  // References to trivial rows (with an entry or without): local ones directly, remote ones by
+  // asking their owners, who keep every row they are asked for.
   const int ranks = static_cast<int>(rank_first.size()) - 1;
   auto owner = [&](GO g) {
     return static_cast<int>(std::upper_bound(rank_first.begin(), rank_first.end() - 1, g) -
                             rank_first.begin()) - 1;
   };
+  std::vector<LO> forced;
   std::vector<std::vector<GO>> ask(static_cast<size_t>(ranks));
-  for (size_t i = 0; i < n; ++i) {
-    if (!keep[i]) continue;
-    for (size_t q = start[i]; q < start[i + 1]; ++q) {
+  for (size_t a = 0; a < na; ++a) {
+    if (triv[a]) continue;
+    for (size_t q = pre_start[a]; q < pre_start[a + 1]; ++q) {
       const GO c = cols[q];
-      if (c >= first && c < first + nlocal) keep[static_cast<size_t>(c - first)] = 1;
-      else ask[static_cast<size_t>(owner(c))].push_back(c);
+      if (c >= first && c < first + nlocal) {
+        const int ca = rec_index[static_cast<size_t>(c - first)];
+        if (ca < 0 || triv[static_cast<size_t>(ca)]) forced.push_back(static_cast<LO>(c - first));
+      } else {
+        ask[static_cast<size_t>(owner(c))].push_back(c);
+      }
     }
   }
   for (auto& a : ask) {
@@ -350,60 +409,89 @@ void LinearSystem::Impl::compress_rows(std::vector<size_t>& start, std::vector<G
     asked.resize(static_cast<size_t>(tot));
     MPI_Alltoallv(sendbuf.data(), scount.data(), sdispl.data(), MPI_LONG_LONG, asked.data(),
                   rcount.data(), rdispl.data(), MPI_LONG_LONG, raw_comm);
-    for (GO g : asked) keep[static_cast<size_t>(g - first)] = 1;
+    for (GO g : asked) forced.push_back(static_cast<LO>(g - first));
   }
-  // MueLu's "number of equations" b > 1 (the N-DAM momentum: u and w of a cell interleaved)
-  // needs whole blocks of b rows: a block stays when one of its rows stays.
-  if (block > 1)
-    for (size_t i0 = 0; i0 + static_cast<size_t>(block) <= n; i0 += static_cast<size_t>(block)) {
-      char any = 0;
-      for (int j = 0; j < block; ++j) any |= keep[i0 + static_cast<size_t>(j)];
-      for (int j = 0; j < block; ++j) keep[i0 + static_cast<size_t>(j)] = any;
+  std::sort(forced.begin(), forced.end());
+  forced.erase(std::unique(forced.begin(), forced.end()), forced.end());
+  // the kept rows: the non-trivial ones and the forced ones
+  std::vector<LO> keep;
+  keep.reserve(na + forced.size());
+  {
+    std::vector<LO> coupled;
+    coupled.reserve(na);
+    for (size_t a = 0; a < na; ++a)
+      if (!triv[a]) coupled.push_back(rec_rows[a]);
+    std::set_union(coupled.begin(), coupled.end(), forced.begin(), forced.end(),
+                   std::back_inserter(keep));
+  }
+  // MueLu's "number of equations" b > 1 needs whole blocks of b rows: a block stays when one
+  // of its rows stays (blocks start at multiples of b: first_row and local_rows are)
+  if (block > 1) {
+    std::vector<LO> whole;
+    whole.reserve(keep.size() + keep.size() / 2);
+    for (LO r : keep) {
+      const LO b0 = r - r % block;
+      if (!whole.empty() && whole.back() >= b0) continue;  // this block is in already
+      for (LO j = 0; j < block; ++j) whole.push_back(b0 + j);
     }
+    keep.swap(whole);
+  }
   // New numbering: the kept rows of rank 0, then those of rank 1, ...
-  std::vector<GO> newid(n, -1);
-  kept.clear();
-  for (size_t i = 0; i < n; ++i)
-    if (keep[i]) {
-      trivial_diag[i] = 0.0;
-      kept.push_back(static_cast<LO>(i));
-    }
-  long long nk = static_cast<long long>(kept.size()), offset = 0, total = 0;
+  long long nk = static_cast<long long>(keep.size()), offset = 0, total = 0;
   MPI_Exscan(&nk, &offset, 1, MPI_LONG_LONG, MPI_SUM, raw_comm);
   MPI_Allreduce(&nk, &total, 1, MPI_LONG_LONG, MPI_SUM, raw_comm);
   int me = 0;
   MPI_Comm_rank(raw_comm, &me);
   if (me == 0) offset = 0;  // MPI_Exscan leaves rank 0's result undefined
-  for (size_t q = 0; q < kept.size(); ++q) newid[static_cast<size_t>(kept[q])] = offset + static_cast<GO>(q);
+  kept.swap(keep);
+  for (size_t q = 0; q < kept.size(); ++q)
+    kept_id[static_cast<size_t>(kept[q])] = offset + static_cast<GO>(q);
+  // the trivial rows with an entry that stay out: x = b / d in solve()
+  triv_rec.clear();
+  triv_d.clear();
+  for (size_t a = 0; a < na; ++a)
+    if (triv[a] && kept_id[static_cast<size_t>(rec_rows[a])] < 0) {
+      triv_rec.push_back(static_cast<int>(a));
+      triv_d.push_back(vals[pre_start[a]]);
+    }
   // Remote columns: the owners answer with the new numbers of the rows they were asked for.
   std::vector<GO> remote_old, remote_new;
   if (ranks > 1) {
     std::vector<GO> answer(asked.size());
-    for (size_t q = 0; q < asked.size(); ++q) answer[q] = newid[static_cast<size_t>(asked[q] - first)];
+    for (size_t q = 0; q < asked.size(); ++q)
+      answer[q] = kept_id[static_cast<size_t>(asked[q] - first)];
     remote_new.resize(sendbuf.size());
     MPI_Alltoallv(answer.data(), rcount.data(), rdispl.data(), MPI_LONG_LONG, remote_new.data(),
                   scount.data(), sdispl.data(), MPI_LONG_LONG, raw_comm);
     remote_old = sendbuf;  // sorted within each rank's block, blocks in rank order: sorted
   }
   auto renumber = [&](GO c) -> GO {
-    if (c >= first && c < first + nlocal) return newid[static_cast<size_t>(c - first)];
+    if (c >= first && c < first + nlocal) return kept_id[static_cast<size_t>(c - first)];
     const auto it = std::lower_bound(remote_old.begin(), remote_old.end(), c);
     return remote_new[static_cast<size_t>(it - remote_old.begin())];
   };
   // Kept rows only, columns renumbered (the numbering keeps the order, so rows stay sorted).
-  std::vector<size_t> kstart(kept.size() + 1, 0);
-  size_t w = 0;
+  kstart.assign(kept.size() + 1, 0);
+  kcols.clear();
+  kvals.clear();
+  kcols.reserve(cols.size() + forced.size() + static_cast<size_t>(block) * forced.size());
+  kvals.reserve(kcols.capacity());
+  kept_rec.resize(kept.size());
   for (size_t q = 0; q < kept.size(); ++q) {
-    const size_t i = static_cast<size_t>(kept[q]);
-    for (size_t p = start[i]; p < start[i + 1]; ++p, ++w) {
-      cols[w] = renumber(cols[p]);
-      vals[w] = vals[p];
+    const int a = rec_index[static_cast<size_t>(kept[q])];
+    kept_rec[q] = a;
+    if (a >= 0) {
+      for (size_t p = pre_start[static_cast<size_t>(a)]; p < pre_start[static_cast<size_t>(a) + 1];
+           ++p) {
+        kcols.push_back(renumber(cols[p]));
+        kvals.push_back(vals[p]);
+      }
+    } else {  // a kept row without entries: the identity row it stands for
+      kcols.push_back(offset + static_cast<GO>(q));
+      kvals.push_back(1.0);
     }
-    kstart[q + 1] = w;
+    kstart[q + 1] = kcols.size();
   }
-  cols.resize(w);
-  vals.resize(w);
-  start = std::move(kstart);
   // A new map when the kept rows changed anywhere (Map construction is collective).
   int changed = rmap.is_null() || rfirst != offset || rglobal != total ||
                 static_cast<long long>(rmap->getNodeNumElements()) != nk;
@@ -423,29 +511,29 @@ void LinearSystem::Impl::compress_rows(std::vector<size_t>& start, std::vector<G
 // between zero and nonzero (that decides whether the row is trivial). Not collective.
 bool LinearSystem::Impl::repeat_values(const std::string& type, std::vector<SC>& pre) const {
   if (!rec_valid || A.is_null() || type != rec_type) return false;
-  const size_t n = static_cast<size_t>(nlocal);
-  if (grp_start != rec_start || !std::equal(gcol, gcol + grp_start[n], rec_cols.begin()))
+  if (grp_rows != rec_rows || grp_start != rec_start ||
+      !std::equal(gcol, gcol + grp_start.back(), rec_cols.begin()))
     return false;
-  pre.assign(pre_start.back(), 0.0);
-  for (size_t i = 0; i < n; ++i) {
-    merge_row(i, gval + rec_start[i], pre.data() + pre_start[i]);
-    if (rec_single[i] != 2 && (pre[pre_start[i]] != 0.0) != (rec_single[i] == 1)) return false;
+  reserve_eighth(pre, pre_start.back());
+  pre.resize(pre_start.back());
+  for (size_t a = 0; a < rec_rows.size(); ++a) {
+    merge_row(a, gval + rec_start[a], pre.data() + pre_start[a]);
+    if (rec_single[a] != 2 && (pre[pre_start[a]] != 0.0) != (rec_single[a] == 1)) return false;
   }
   return true;
 }
 
-// The merged entries of local row i (merged[0 ..]) from its values in the order they were
-// added (added[0 ..]; the record's sequence), summed in the order of the full path: the
-// sorted order, duplicates summed in it. A row without entries is an identity row.
-void LinearSystem::Impl::merge_row(size_t i, const SC* added, SC* merged) const {
-  const size_t b = rec_start[i], size = rec_start[i + 1] - b, p0 = pre_start[i];
+// The merged entries of the record's row a (merged[0 ..]) from its values in the order they
+// were added (added[0 ..]; the record's sequence), summed in the order of the full path: the
+// sorted order, duplicates summed in it. Every merged entry is written (its first sum).
+void LinearSystem::Impl::merge_row(size_t a, const SC* added, SC* merged) const {
+  const size_t b = rec_start[a], size = rec_start[a + 1] - b, p0 = pre_start[a];
   for (size_t j = 0; j < size; ++j) {
     const size_t d = rec_merged[b + j] - p0;
     const double v = added[rec_order[b + j]];
     if (rec_first[b + j]) merged[d] = v;
     else merged[d] += v;
   }
-  if (size == 0) merged[0] = 1.0;
 }
 
 // The preconditioner type of the matrix being assembled (the switch, if the list has one).
@@ -459,11 +547,12 @@ std::string LinearSystem::Impl::next_type() const {
 // New values (pre_start layout) on the current graph: a new matrix, so that the old one stays
 // intact for a lagged or held preconditioner that still refers to it.
 void LinearSystem::Impl::install_values(const std::vector<SC>& pre) {
-  for (size_t i = 0; i < trivial_diag.size(); ++i)
-    if (trivial_diag[i] != 0.0) trivial_diag[i] = pre[pre_start[i]];
+  for (size_t t = 0; t < triv_rec.size(); ++t)
+    triv_d[t] = pre[pre_start[static_cast<size_t>(triv_rec[t])]];
   Matrix::local_matrix_device_type::values_type v("A values", value_slot.size());
   for (size_t q = 0; q < pre.size(); ++q)
     if (pre_dest[q] >= 0) v(static_cast<size_t>(pre_dest[q])) = pre[q];
+  for (size_t s : one_slots) v(s) = 1.0;
   auto Anew = rcp(new Matrix(A->getCrsGraph(), v));
   Anew->fillComplete(rmap, rmap);
   A = Anew;
@@ -478,17 +567,18 @@ void LinearSystem::Impl::install_values(const std::vector<SC>& pre) {
 bool LinearSystem::Impl::update_values(const std::string& type) {
   if (!rec_valid || A.is_null() || type != rec_type || cur_pre.size() != pre_start.back())
     return false;
-  const size_t n = static_cast<size_t>(nlocal);
-  for (size_t i = 0; i < n; ++i) {
-    const size_t g = grp_start[i], size = grp_start[i + 1] - g;
-    if (size == 0) continue;  // not updated
-    const size_t b = rec_start[i];
-    if (size != rec_start[i + 1] - b ||
-        !std::equal(gcol + g, gcol + g + size, rec_cols.begin() + static_cast<std::ptrdiff_t>(b)))
+  for (size_t g = 0; g < grp_rows.size(); ++g) {
+    const int a = rec_index[static_cast<size_t>(grp_rows[g])];
+    if (a < 0) return false;  // a row without entries in the record
+    const size_t s = grp_start[g], size = grp_start[g + 1] - s;
+    const size_t b = rec_start[static_cast<size_t>(a)];
+    if (size != rec_start[static_cast<size_t>(a) + 1] - b ||
+        !std::equal(gcol + s, gcol + s + size, rec_cols.begin() + static_cast<std::ptrdiff_t>(b)))
       return false;
-    SC* row = cur_pre.data() + pre_start[i];
-    merge_row(i, gval + g, row);  // every merged entry of the row is written (its first sum)
-    if (rec_single[i] != 2 && (row[0] != 0.0) != (rec_single[i] == 1)) return false;
+    SC* row = cur_pre.data() + pre_start[static_cast<size_t>(a)];
+    merge_row(static_cast<size_t>(a), gval + s, row);
+    const char single = rec_single[static_cast<size_t>(a)];
+    if (single != 2 && (row[0] != 0.0) != (single == 1)) return false;
   }
   return true;
 }
@@ -522,32 +612,34 @@ void LinearSystem::end() {
   // the record is rewritten below; until the matrix is built it describes nothing (an
   // exception on the way must not leave a stale record for the next assembly's repeat path)
   m.rec_valid = false;
-  const size_t n = static_cast<size_t>(m.nlocal);
-  std::vector<size_t> start(n + 1, 0);
-  std::vector<GO> cols;
+  for (LO r : m.rec_rows) m.rec_index[static_cast<size_t>(r)] = -1;
+  const size_t na = m.grp_rows.size(), added = m.grp_start[na];
+  std::vector<GO> cols;  // the merged rows (pre_start layout)
   std::vector<SC> vals;
-  const size_t added = m.grp_start[n];
-  cols.reserve(added + n);
-  vals.reserve(added + n);
-  // the record of this emission sequence, for the repeat path of the next assembly; when it
-  // outgrows its capacity it grows by an eighth, not by doubling (a steady run's emission
-  // count wanders by a per cent: one such growth, not a resident set that doubles its share)
-  if (added > m.rec_cols.capacity()) {
-    const size_t cap = added + added / 8;
-    m.rec_cols.reserve(cap);
-    m.rec_order.reserve(cap);
-    m.rec_merged.reserve(cap);
-    m.rec_first.reserve(cap);
-  }
+  cols.reserve(added);
+  vals.reserve(added);
+  // the record of this emission sequence, for the repeat path of the next assembly
+  reserve_eighth(m.rec_cols, added);
+  reserve_eighth(m.rec_order, added);
+  reserve_eighth(m.rec_merged, added);
+  reserve_eighth(m.rec_first, added);
+  reserve_eighth(m.rec_rows, na);
+  reserve_eighth(m.rec_start, na + 1);
+  reserve_eighth(m.rec_single, na);
+  reserve_eighth(m.pre_start, na + 1);
+  m.rec_rows = m.grp_rows;
   m.rec_start = m.grp_start;
   m.rec_cols.assign(m.gcol, m.gcol + added);
   m.rec_order.resize(added);
   m.rec_merged.resize(added);
   m.rec_first.resize(added);
-  m.rec_single.assign(n, 2);
+  m.rec_single.assign(na, 2);
+  m.pre_start.assign(na + 1, 0);
   std::vector<std::pair<GO, std::uint32_t>> order;
-  for (size_t i = 0; i < n; ++i) {
-    const size_t b = m.rec_start[i], size = m.rec_start[i + 1] - b;
+  for (size_t a = 0; a < na; ++a) {
+    const LO i = m.rec_rows[a];
+    m.rec_index[static_cast<size_t>(i)] = static_cast<int>(a);
+    const size_t b = m.rec_start[a], size = m.rec_start[a + 1] - b;
     // sort (column, emission index) by column only: the same permutation std::sort gives the
     // (column, value) pairs, so the sums of duplicates keep their order
     order.resize(size);
@@ -568,28 +660,26 @@ void LinearSystem::end() {
       m.rec_merged[b + q] = cols.size() - 1;
       m.rec_first[b + q] = first ? 1 : 0;
     }
-    if (size == 0) {  // a row without entries: an identity row (x = b there)
-      cols.push_back(m.first + static_cast<GO>(i));
-      vals.push_back(1.0);
-    }
-    start[i + 1] = cols.size();
-    if (start[i + 1] - start[i] == 1 && cols[start[i]] == m.first + static_cast<GO>(i))
-      m.rec_single[i] = vals[start[i]] != 0.0 ? 1 : 0;
+    m.pre_start[a + 1] = cols.size();
+    if (m.pre_start[a + 1] - m.pre_start[a] == 1 && cols[m.pre_start[a]] == m.first + i)
+      m.rec_single[a] = vals[m.pre_start[a]] != 0.0 ? 1 : 0;
   }
-  m.pre_start = start;
-  m.cur_pre = vals;  // (compress_rows below reorders vals)
+  m.cur_pre = vals;
   const std::vector<LO> old_kept = m.kept;
   const GO old_rfirst = m.rfirst;
   m.prec_type = type;
   m.block = m.prec_type == "MueLu" ? m.block_eq : 1;
-  m.compress_rows(start, cols, vals);
+  std::vector<size_t> start;
+  std::vector<GO> kcols;
+  std::vector<SC> kvals;
+  m.compress_rows(cols, vals, start, kcols, kvals);
   // Collective decision: a pattern that changed on one rank only (e.g. the free-surface flags
   // of one slab) must rebuild the graph and the preconditioner on every rank; a rank-local
   // decision left one rank setting up MueLu while the other solved (deadlock, found with the
   // N-DAM chute at np = 2).
   const int same_local =
       !m.A.is_null() && m.kept == old_kept && m.rfirst == old_rfirst &&
-              start == m.row_start && cols == m.pattern
+              start == m.row_start && kcols == m.pattern
           ? 1
           : 0;
   int same_all = 0;
@@ -600,7 +690,7 @@ void LinearSystem::end() {
     // preconditioner that still refers to it. The values go straight into Tpetra's local
     // storage order (value_slot, from the pattern build): no global-index lookups.
     Matrix::local_matrix_device_type::values_type v("A values", m.value_slot.size());
-    for (size_t q = 0; q < m.value_slot.size(); ++q) v(m.value_slot[q]) = vals[q];
+    for (size_t q = 0; q < m.value_slot.size(); ++q) v(m.value_slot[q]) = kvals[q];
     auto A = rcp(new Matrix(m.A->getCrsGraph(), v));
     A->fillComplete(m.rmap, m.rmap);
     m.A = A;
@@ -615,7 +705,7 @@ void LinearSystem::end() {
     const LO nk = static_cast<LO>(m.kept.size());
     const GO rfirst = m.rfirst;
     std::vector<GO> remote;
-    for (GO c : cols)
+    for (GO c : kcols)
       if (c < rfirst || c >= rfirst + nk) remote.push_back(c);
     std::sort(remote.begin(), remote.end());
     remote.erase(std::unique(remote.begin(), remote.end()), remote.end());
@@ -624,19 +714,19 @@ void LinearSystem::end() {
     std::copy(remote.begin(), remote.end(), colgids.begin() + nk);
     auto colmap = rcp(new Map(Teuchos::OrdinalTraits<Tpetra::global_size_t>::invalid(),
                               colgids(), 0, m.comm));
-    const size_t nnz = cols.size();
+    const size_t nnz = kcols.size();
     Matrix::local_graph_device_type::row_map_type::non_const_type ptr("A rows",
                                                                       static_cast<size_t>(nk) + 1);
     Matrix::local_graph_device_type::entries_type::non_const_type ind("A columns", nnz);
     Matrix::local_matrix_device_type::values_type v("A values", nnz);
-    if (nnz > m.value_slot.capacity()) m.value_slot.reserve(nnz + nnz / 8);  // (as rec_cols)
+    reserve_eighth(m.value_slot, nnz);
     m.value_slot.resize(nnz);
-    std::vector<std::pair<LO, size_t>> row;  // (local column, position in cols) of one row
+    std::vector<std::pair<LO, size_t>> row;  // (local column, position in kcols) of one row
     for (LO i = 0; i < nk; ++i) {
       const size_t b = start[static_cast<size_t>(i)], e = start[static_cast<size_t>(i) + 1];
       row.clear();
       for (size_t q = b; q < e; ++q) {
-        const GO c = cols[q];
+        const GO c = kcols[q];
         const LO lc = c >= rfirst && c < rfirst + nk
                           ? static_cast<LO>(c - rfirst)
                           : nk + static_cast<LO>(std::lower_bound(remote.begin(), remote.end(), c) -
@@ -646,7 +736,7 @@ void LinearSystem::end() {
       std::sort(row.begin(), row.end());
       for (size_t j = 0; j < row.size(); ++j) {
         ind(b + j) = row[j].first;
-        v(b + j) = vals[row[j].second];
+        v(b + j) = kvals[row[j].second];
         m.value_slot[row[j].second] = b + j;
       }
       ptr(static_cast<size_t>(i) + 1) = e;
@@ -654,19 +744,26 @@ void LinearSystem::end() {
     m.A = rcp(new Matrix(m.rmap, colmap, ptr, ind, v));
     m.A->expertStaticFillComplete(m.rmap, m.rmap);
     m.row_start = std::move(start);
-    m.pattern = std::move(cols);
+    m.pattern = std::move(kcols);
     ++m.pattern_builds;
     m.prec = Teuchos::null;  // a preconditioner of another pattern is not reused (measured:
                              // lagged across free-surface flag changes it needs 2-3x the
                              // iterations, and the rebuilds it saves are lost again)
   }
-  // where each pre-compression entry of a kept row sits in Tpetra's values (repeat path)
+  // where each merged entry of a kept row sits in Tpetra's values (repeat path), and the
+  // slots of the kept rows without entries (their identity 1)
   m.pre_dest.assign(m.pre_start.back(), -1);
+  m.one_slots.clear();
   const auto& kstart = m.row_start;  // equal to start when the pattern is the same
   for (size_t q = 0; q < m.kept.size(); ++q) {
-    const size_t i = static_cast<size_t>(m.kept[q]);
-    for (size_t j = 0; j < m.pre_start[i + 1] - m.pre_start[i]; ++j)
-      m.pre_dest[m.pre_start[i] + j] = static_cast<long long>(m.value_slot[kstart[q] + j]);
+    const int a = m.kept_rec[q];
+    if (a < 0) {
+      m.one_slots.push_back(m.value_slot[kstart[q]]);
+      continue;
+    }
+    const size_t p0 = m.pre_start[static_cast<size_t>(a)];
+    for (size_t j = 0; j < m.pre_start[static_cast<size_t>(a) + 1] - p0; ++j)
+      m.pre_dest[p0 + j] = static_cast<long long>(m.value_slot[kstart[q] + j]);
   }
   m.rec_type = m.prec_type;
   m.rec_valid = true;
@@ -780,10 +877,22 @@ SolveStats LinearSystem::solve(const std::vector<double>& b, std::vector<double>
   SolveStats st;
   st.stiff = m.params.isParameter("Stiff preconditioner") &&
              m.prec_type != m.params.get<std::string>("Preconditioner");
-  // Trivial rows: x = b / d. The Krylov system holds the kept rows only.
-  for (LO i = 0; i < m.nlocal; ++i)
-    if (m.trivial_diag[static_cast<size_t>(i)] != 0.0)
-      x[static_cast<size_t>(i)] = b[static_cast<size_t>(i)] / m.trivial_diag[static_cast<size_t>(i)];
+  // Trivial rows: x = b (rows without entries: copied between the kept rows), x = b / d (a
+  // single diagonal entry). The Krylov system holds the kept rows only.
+  {
+    size_t from = 0;
+    for (LO r : m.kept) {
+      std::copy(b.begin() + static_cast<std::ptrdiff_t>(from), b.begin() + r,
+                x.begin() + static_cast<std::ptrdiff_t>(from));
+      from = static_cast<size_t>(r) + 1;
+    }
+    std::copy(b.begin() + static_cast<std::ptrdiff_t>(from), b.end(),
+              x.begin() + static_cast<std::ptrdiff_t>(from));
+    for (size_t t = 0; t < m.triv_rec.size(); ++t) {
+      const size_t i = static_cast<size_t>(m.rec_rows[static_cast<size_t>(m.triv_rec[t])]);
+      x[i] = b[i] / m.triv_d[t];
+    }
+  }
   if (m.rglobal == 0) {
     st.converged = true;
     ++solves_;
