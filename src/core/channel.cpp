@@ -4,6 +4,7 @@
 #include "granflow/params/parameters.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -59,6 +60,7 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
   while (std::getline(in, line)) {
     ++lineno;
     if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF files
+    if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // a UTF-8 BOM
     if (line.find_first_not_of(" \t") == std::string::npos || line[0] == '#') continue;
     // Exactly three fields t,h,u (commas, or blanks in a file without commas), each a whole
     // number by params::parse_double: "0.1abc" or a fourth column is an error, not 0.1.
@@ -80,7 +82,27 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
         why = "field " + std::to_string(k + 1) + " " + params::shown(f[k]) + " is " + why;
       }
     if (!ok) {
-      if (s.t_.empty() && lineno == 1) continue;  // header
+      if (s.t_.empty() && lineno == 1) {
+        // A header must name the columns in the order they are read, t,h,u (a unit may follow
+        // a name: 't [s]'): a file headed t,u,h had its velocities read as depths (a
+        // hostile-user run), and a header of two names over three columns went unnoticed.
+        static const char* const kNames[3] = {"t", "h", "u"};
+        bool named = f.size() == 3;
+        for (std::size_t k = 0; named && k < 3; ++k) {
+          const std::string& c = f[k];
+          const auto b = c.find_first_not_of(" \t");
+          const auto e = b == std::string::npos ? b : c.find_first_of(" \t[(", b);
+          std::string name = b == std::string::npos ? "" : c.substr(b, e == std::string::npos ? e : e - b);
+          for (char& ch : name) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+          named = name == kNames[k];
+        }
+        if (named) continue;
+        throw params::InputError("parameter '" + ppath + "' = " + file + ": line 1 " +
+                                 params::shown(line) +
+                                 " is neither data nor the header t,h,u; allowed: a first line "
+                                 "t,h,u (the columns in the order they are read, a unit may "
+                                 "follow each name) or none, then three numbers t,h,u per line");
+      }
       throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
                                std::to_string(lineno) + " " + why +
                                "; allowed: three numbers t,h,u separated by commas");
@@ -177,7 +199,8 @@ Teuchos::RCP<const Teuchos::ParameterList> Channel::getValidParameters() {
                "channel: the critical depth over a dry or accelerating channel "
                "(docs/numerics.md)", -kMaxInflowSpeed, kMaxInflowSpeed);
     add_string(left, "Inflow series file", "",
-               "CSV file with columns t,h,u (header allowed) giving a time-dependent inflow, "
+               "CSV file with columns t,h,u (a first line may name them, t,h,u in this order, a "
+               "unit may follow each name) giving a time-dependent inflow, "
                "linear in time and held after its last row; relative to the scene file. "
                "Replaces 'Inflow depth' and 'Inflow velocity' (Inflow only)");
     auto& right = pl->sublist("Right boundary", false, "Downstream end x = L");

@@ -132,6 +132,62 @@ void NdamSolver::setup() {
   wall_stuck_.assign(static_cast<std::size_t>(nz), 0);
 }
 
+// The cells outside the obstacles must form one connected region (parameters.md, Obstacles):
+// the pressure of the closed box is fixed up to a constant by one pinned cell, so a region cut
+// off from it has a singular pressure system whose level is whatever the Krylov iteration
+// leaves (found by an independent run: a full-width slab in the rest-slope box ran to the end
+// with pressures of -214 to 10 499 Pa along one row under it). A breadth-first search over the
+// non-obstacle cells from the first of them (across the periodic ends when x is periodic),
+// the same on every rank (the flags of the whole box are on every rank).
+void NdamSolver::check_obstacles_connected() const {
+  const int nx = cfg_.grid.nx, nz = cfg_.grid.nz;
+  auto open = [&](int gi, int k) { return mac_.gflag(gi, k) != CellFlag::Obstacle; };
+  std::vector<char> seen(static_cast<std::size_t>(nx) * static_cast<std::size_t>(nz), 0);
+  auto at = [&](int gi, int k) -> char& {
+    return seen[static_cast<std::size_t>(gi) * static_cast<std::size_t>(nz) + static_cast<std::size_t>(k)];
+  };
+  long long open_cells = 0, reached = 0;
+  std::vector<std::array<int, 2>> queue;
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = 0; k < nz; ++k)
+      if (open(gi, k)) {
+        ++open_cells;
+        if (queue.empty()) {
+          queue.push_back({gi, k});
+          at(gi, k) = 1;
+        }
+      }
+  for (std::size_t q = 0; q < queue.size(); ++q) {
+    ++reached;
+    const auto [gi, k] = queue[q];
+    const int di[4] = {-1, 1, 0, 0}, dk[4] = {0, 0, -1, 1};
+    for (int n = 0; n < 4; ++n) {
+      int gj = gi + di[n];
+      const int kk = k + dk[n];
+      if (kk < 0 || kk >= nz) continue;
+      if (gj < 0 || gj >= nx) {
+        if (!cfg_.periodic_x()) continue;
+        gj = (gj + nx) % nx;
+      }
+      if (!open(gj, kk) || at(gj, kk)) continue;
+      at(gj, kk) = 1;
+      queue.push_back({gj, kk});
+    }
+  }
+  if (reached == open_cells) return;
+  std::string spec;
+  for (const auto& r : cfg_.obstacles)
+    spec += (spec.empty() ? "" : "; ") + params::str(r[0]) + " " + params::str(r[1]) + " " +
+            params::str(r[2]) + " " + params::str(r[3]);
+  throw params::InputError(
+      "parameter 'granflow->N-DAM->Obstacles' = " + spec + ": the obstacles cut the box into "
+      "regions that do not connect (" + std::to_string(open_cells - reached) + " of " +
+      std::to_string(open_cells) + " fluid cells are cut off from the cell at x = " +
+      params::str(cfg_.x0 + (queue[0][0] + 0.5) * cfg_.grid.dx()) + " m, z = " +
+      params::str((queue[0][1] + 0.5) * cfg_.grid.dz()) + " m), so the pressure of a closed "
+      "region has no reference; allowed: rectangles that leave one connected fluid region");
+}
+
 // t = 0: the material at rest (the initial layer of the free-surface box, or the whole closed
 // box) with the pressure of eq. (10), i.e. in hydrostatic balance.
 void NdamSolver::rest_state() {
@@ -152,6 +208,7 @@ void NdamSolver::rest_state() {
   if (fluid_cells_ == 0 && !cfg_.free_surface)
     throw params::InputError("N-DAM->Obstacles: the obstacles fill the whole box; allowed: "
                              "rectangles that leave fluid cells");
+  if (!cfg_.obstacles.empty()) check_obstacles_connected();
   assemble_pressure();
   if (cfg_.inflow) inflow_now_ = cfg_.inflow(0.0);
   fill_velocity_ghosts(u_, w_);

@@ -117,10 +117,14 @@ void check_initial_material(const Teuchos::ParameterList& p, const Teuchos::Para
 // neighbours would be one 2D model cut by an interface that neither model's conditions describe,
 // and a 2D subdomain narrower than kMinimumColumns columns of the 2D grid would be built on
 // squeezed columns (the factory keeps at least that many; 1 mm on 10 mm columns gave cells of
-// 0.25 x 10 mm and a run that diverged at its first steps). Both are refused at input.
+// 0.25 x 10 mm and a run that diverged at its first steps). Both are refused at input, and so is
+// a 1D subdomain narrower than as many cells of the DAM's grid (L / DAM->Cells): the factory
+// squeezes those cells alike, and a 1D part of 0.1 mm between two 2D parts (four DAM cells of
+// 25 um) ran with a mass defect of 1.5e-4 of the run's mass (a hostile-user run; 1e-17 with
+// parts of a few cells).
 constexpr int kMinimumColumns = coupling::SubdomainFactory::kMinimumCells;
 void check_two_d_parts(const Teuchos::ParameterList& dec, const core::Channel& channel,
-                       const coupling::Decomposition& layout, double dx2) {
+                       const coupling::Decomposition& layout, double dx2, double dx1) {
   // the a priori layout computes its interfaces: only a user's list is checked
   const bool users = layout.layout == "Static" ||
                      (layout.layout == "Dynamic" && layout.initial_layout == "Static");
@@ -128,7 +132,17 @@ void check_two_d_parts(const Teuchos::ParameterList& dec, const core::Channel& c
   const auto d = layout.normalised(channel.length);
   if (d.models.size() != d.interfaces.size() + 1) return;
   for (std::size_t i = 0; i < d.models.size(); ++i) {
-    if (d.models[i] != "2D") continue;
+    if (d.models[i] != "2D") {
+      const auto [x0, x1] = d.extent(i, channel.length);
+      if (x1 - x0 < (kMinimumColumns - 1e-9) * dx1)
+        params::fail(dec, "Interfaces", params::str(layout.interfaces),
+                     "give the 1D subdomain [" + params::str(x0) + ", " + params::str(x1) +
+                         "] m, narrower than " + std::to_string(kMinimumColumns) +
+                         " cells of the DAM's grid (L / DAM->Cells = " + params::str(dx1) +
+                         " m); allowed: 1D subdomains of at least " +
+                         params::str(kMinimumColumns * dx1) + " m");
+      continue;
+    }
     const auto [x0, x1] = d.extent(i, channel.length);
     if (i + 1 < d.models.size() && d.models[i + 1] == "2D")
       params::fail(dec, "Models", Teuchos::toString(dec.get<Teuchos::Array<std::string>>("Models")),
@@ -349,7 +363,8 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
           }
         }
       }
-      check_two_d_parts(p.sublist("Decomposition"), channel, d, two_d.cfg.grid.dx());
+      check_two_d_parts(p.sublist("Decomposition"), channel, d, two_d.cfg.grid.dx(),
+                        channel.length / cfg.cells);
       auto coupled = coupling::build(d, material, channel, cfg, init, &two_d);
       if (dynamic)
         coupled->set_domain_manager(

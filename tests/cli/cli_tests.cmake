@@ -359,3 +359,11 @@ foreach(_s 5mm 2p6mm long_5mm)
            WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
   set_tests_properties(long.setup2_nonlinear_${_s} PROPERTIES LABELS "long" TIMEOUT 7200)
 endforeach()
+# obstacles that cut the closed box into regions without a common pressure reference (a
+# hostile-user run: it completed with an arbitrary pressure level under the slab)
+granflow_cli_test(obstacles_cut 2 "N-DAM->Obstacles' = 0.2 0.3 0 0.02; 0 1 0.07 0.08: the obstacles cut the box into regions that do not connect \\(700 of 1380 fluid cells.*allowed: rectangles that leave one connected fluid region"
+                  --check ${_cli}/bad_obstacles_cut.xml)
+# a 1D subdomain narrower than four DAM cells (a hostile-user run: 0.1 mm between two 2D parts
+# completed with a mass defect of 1.5e-4 of the run's mass)
+granflow_cli_test(coupled_short_1d 2 "Decomposition->Interfaces' = \\{0.2, 0.2001\\}: give the 1D subdomain \\[0.2, 0.2001\\] m, narrower than 4 cells of the DAM's grid.*allowed: 1D subdomains of at least 0.02 m"
+                  --check ${_cli}/bad_coupled_short_1d.xml)

@@ -238,3 +238,27 @@ TEST(InflowSeries, RowsAreThreeStrictNumbers) {
   const auto ok = write_tmp("series_blank.csv", "t h u\r\n0 0.06 0.37\r\n1 0.08 0.5\r\n");
   EXPECT_NEAR(core::InflowSeries::from_csv(ok, "p").depth(0.5), 0.07, 1e-15);  // round-off only
 }
+
+// A header names the columns in the order they are read, t,h,u (a unit may follow a name): a
+// file headed t,u,h had its velocities read as depths without a word (a hostile-user run), and
+// so did a header of two names over three columns. A UTF-8 byte-order mark before the first
+// line is dropped, so a first data row behind it is read, not taken for a header.
+TEST(InflowSeries, HeaderMustNameTheColumnsInTheirOrder) {
+  for (const char* header : {"t,u,h", "foo,bar", "time,depth,velocity", "t,h", "h,t,u"}) {
+    const auto f = write_tmp("series_header.csv", std::string(header) + "\n0,0.06,0.37\n1,0.06,0.37\n");
+    try {
+      core::InflowSeries::from_csv(f, "p");
+      FAIL() << header << " accepted";
+    } catch (const params::InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("neither data nor the header t,h,u"), std::string::npos)
+          << e.what();
+    }
+  }
+  for (const char* header : {"t,h,u", "T, H, U", "t [s],h [m],u [m/s]", "t(s) h(m) u(m/s)"}) {
+    const auto f = write_tmp("series_header.csv", std::string(header) + "\n0,0.06,0.37\n1,0.08,0.5\n");
+    const auto s = core::InflowSeries::from_csv(f, "p");
+    EXPECT_EQ(s.depth(1.0), 0.08) << header;  // the second column is h
+  }
+  const auto bom = write_tmp("series_bom.csv", "\xEF\xBB\xBF" "0,0.06,0.37\n1,0.08,0.5\n");
+  EXPECT_EQ(core::InflowSeries::from_csv(bom, "p").depth(0.0), 0.06);  // the first row is data
+}

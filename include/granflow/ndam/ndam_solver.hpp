@@ -217,6 +217,7 @@ class NdamSolver final : public core::Stepper {
              const NdamState* state, const NdamStatistics& stats);
   void setup();                              // layout, fields, markers, linear systems
   void rest_state();                         // the initial layer at rest, eq. (10) pressure
+  void check_obstacles_connected() const;    // one connected fluid region (input check)
   void import_state(const NdamState& s);     // the given state (restart, rebuilt box)
   // --- load_balance.cpp: x-slabs by the work of the columns ----------------------------------
   std::vector<double> column_work() const;                 // every rank, from the flags
