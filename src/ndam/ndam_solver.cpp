@@ -213,6 +213,15 @@ void NdamSolver::rest_state() {
   if (cfg_.inflow) inflow_now_ = cfg_.inflow(0.0);
   fill_velocity_ghosts(u_, w_);
   update_viscosity(p_);
+  if (cfg_.free_surface) {
+    // The free surface's Dirichlet values in eq. (10) as in every step (surface_conditions):
+    // p = 0 at the markers' surface inside a Surface cell, not at its centre. Without them the
+    // pressure written at t = 0 (fields.h5, wall.csv) and the first step's lagged pressure were
+    // g cos(zeta) dz / 2 low under a surface (an independent run: a pool of 5 mm cells 10 %
+    // low at its foot at t = 0, hydrostatic from the first step on).
+    update_profile_cache();
+    surface_conditions();
+  }
   initial_pressure();
   if (cfg_.free_surface) {
     update_viscosity(p_);  // Coulomb factors with the initial pressure
