@@ -677,6 +677,70 @@ struct Reader {
 };
 }  // namespace
 
+namespace {
+// Numeric character references as XML 1.0 has them, for Teuchos' reader: it turns &#233; into
+// the single byte 0xE9 (Latin-1, then not UTF-8 text) and refuses hex references with letters
+// (&#xE9;) and code points above 255 (a hostile-user run: a Name written with entities). A
+// reference to a character above U+007F becomes its UTF-8 bytes (never markup), one to an ASCII
+// character in hex its decimal form (&#x41; -> &#65;, which Teuchos reads; &#x3C; stays a
+// reference to '<'). References to characters XML does not allow (0, surrogates, U+FFFE/FFFF,
+// beyond U+10FFFF) are left for the reader to refuse.
+std::string expand_character_references(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const std::size_t amp = text.find("&#", i);
+    if (amp == std::string::npos) break;
+    out.append(text, i, amp - i);
+    i = amp;
+    const bool hex = amp + 2 < text.size() && text[amp + 2] == 'x';
+    std::size_t j = amp + (hex ? 3 : 2);
+    unsigned long cp = 0;
+    bool ok = j < text.size();
+    const std::size_t first = j;
+    for (; j < text.size() && text[j] != ';'; ++j) {
+      const char c = text[j];
+      int d = -1;
+      if (c >= '0' && c <= '9') d = c - '0';
+      else if (hex && c >= 'a' && c <= 'f') d = c - 'a' + 10;
+      else if (hex && c >= 'A' && c <= 'F') d = c - 'A' + 10;
+      if (d < 0 || j - first > 8) {
+        ok = false;
+        break;
+      }
+      cp = cp * (hex ? 16 : 10) + static_cast<unsigned long>(d);
+    }
+    ok = ok && j < text.size() && text[j] == ';' && j > first;
+    const bool allowed = cp == 0x9 || cp == 0xA || cp == 0xD || (cp >= 0x20 && cp <= 0xD7FF) ||
+                         (cp >= 0xE000 && cp <= 0xFFFD) || (cp >= 0x10000 && cp <= 0x10FFFF);
+    if (!ok || !allowed || (cp < 0x80 && !hex)) {  // left as it is
+      out += text[i];
+      ++i;
+      continue;
+    }
+    if (cp < 0x80) {
+      out += "&#" + std::to_string(cp) + ";";
+    } else if (cp < 0x800) {
+      out += static_cast<char>(0xC0 | (cp >> 6));
+      out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else if (cp < 0x10000) {
+      out += static_cast<char>(0xE0 | (cp >> 12));
+      out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+      out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else {
+      out += static_cast<char>(0xF0 | (cp >> 18));
+      out += static_cast<char>(0x80 | ((cp >> 12) & 0x3F));
+      out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+      out += static_cast<char>(0x80 | (cp & 0x3F));
+    }
+    i = j + 1;
+  }
+  out.append(text, i, std::string::npos);
+  return out;
+}
+}  // namespace
+
 XmlDocument parse_xml(const std::string& file) {
   std::error_code ec;
   if (std::filesystem::is_directory(file, ec))
@@ -694,7 +758,7 @@ XmlDocument parse_xml(const std::string& file) {
   if (!in) throw InputError("cannot open scene file '" + file + "' (no such file or not readable)");
   std::ostringstream buf;
   buf << in.rdbuf();
-  const std::string text = buf.str();
+  const std::string text = expand_character_references(buf.str());
   check_nesting(text, file);
   XmlDocument doc{file, Teuchos::XMLObject()};
   try {

@@ -205,6 +205,26 @@ TEST(StrictValues, LineBreaksOnlyInTheDescription) {
   }
 }
 
+// XML's numeric character references in any form: Teuchos' reader made &#233; the byte 0xE9
+// (then refused as not UTF-8) and did not take &#xE9; or code points above 255 (a hostile-user
+// run: a Name written with entities). They are now the UTF-8 text they stand for; a reference
+// to '<' stays a character of the value, and one to a character XML does not allow (a
+// surrogate) is refused.
+TEST(StrictValues, CharacterReferencesAreTheirCharacters) {
+  auto name_of = [](const std::string& value) {
+    const auto f = write_tmp("charref.xml",
+                             "<ParameterList name=\"granflow\"><Parameter name=\"Name\" "
+                             "type=\"string\" value=\"" + value + "\"/></ParameterList>");
+    return params::read_xml(f)->get<std::string>("Name");
+  };
+  EXPECT_EQ(name_of("a&#233;b"), "a\xc3\xa9" "b");
+  EXPECT_EQ(name_of("a&#xE9;b&#xe9;"), "a\xc3\xa9" "b\xc3\xa9");
+  EXPECT_EQ(name_of("&#x100;&#x20AC;&#x1F600;"), "\xc4\x80\xe2\x82\xac\xf0\x9f\x98\x80");
+  EXPECT_EQ(name_of("a&#x41;&#65;&#x3C;b"), "aAA<b");
+  EXPECT_EQ(name_of("a\xc3\xa9" "b"), "a\xc3\xa9" "b");  // literal UTF-8 as before
+  EXPECT_THROW(name_of("a&#xD800;b"), params::InputError);
+}
+
 TEST(StrictValues, ShippedScenesReadAsTeuchosReadsThem) {
   // For valid input the strict reader must give the same list as Teuchos's own XML reader
   // (same names, types and values, compared exactly): it only refuses what Teuchos misreads.
