@@ -131,31 +131,28 @@ void check_two_d_parts(const Teuchos::ParameterList& dec, const core::Channel& c
   if (!users) return;
   const auto d = layout.normalised(channel.length);
   if (d.models.size() != d.interfaces.size() + 1) return;
+  // a subdomain narrower than kMinimumColumns cells of its model's grid
+  auto check_width = [&](bool two_d, double x0, double x1) {
+    const double w = two_d ? dx2 : dx1;
+    if (x1 - x0 >= (kMinimumColumns - 1e-9) * w) return;
+    const std::string kind = two_d ? "2D" : "1D";
+    params::fail(dec, "Interfaces", params::str(layout.interfaces),
+                 "give the " + kind + " subdomain [" + params::str(x0) + ", " + params::str(x1) +
+                     "] m, narrower than " + std::to_string(kMinimumColumns) +
+                     (two_d ? " columns of the 2D grid (L / N-DAM->Cells x = "
+                            : " cells of the DAM's grid (L / DAM->Cells = ") +
+                     params::str(w) + " m); allowed: " + kind + " subdomains of at least " +
+                     params::str(kMinimumColumns * w) + " m");
+  };
   for (std::size_t i = 0; i < d.models.size(); ++i) {
-    if (d.models[i] != "2D") {
-      const auto [x0, x1] = d.extent(i, channel.length);
-      if (x1 - x0 < (kMinimumColumns - 1e-9) * dx1)
-        params::fail(dec, "Interfaces", params::str(layout.interfaces),
-                     "give the 1D subdomain [" + params::str(x0) + ", " + params::str(x1) +
-                         "] m, narrower than " + std::to_string(kMinimumColumns) +
-                         " cells of the DAM's grid (L / DAM->Cells = " + params::str(dx1) +
-                         " m); allowed: 1D subdomains of at least " +
-                         params::str(kMinimumColumns * dx1) + " m");
-      continue;
-    }
+    const bool two_d = d.models[i] == "2D";
     const auto [x0, x1] = d.extent(i, channel.length);
-    if (i + 1 < d.models.size() && d.models[i + 1] == "2D")
+    if (two_d && i + 1 < d.models.size() && d.models[i + 1] == "2D")
       params::fail(dec, "Models", Teuchos::toString(dec.get<Teuchos::Array<std::string>>("Models")),
                    "two neighbouring subdomains are 2D (at x = " + params::str(x1) +
                        " m): one 2D model runs both; allowed: 1D subdomains between 2D ones "
                        "(or one 2D entry for the whole stretch)");
-    if (x1 - x0 < (kMinimumColumns - 1e-9) * dx2)
-      params::fail(dec, "Interfaces", params::str(layout.interfaces),
-                   "give the 2D subdomain [" + params::str(x0) + ", " + params::str(x1) +
-                       "] m, narrower than " + std::to_string(kMinimumColumns) +
-                       " columns of the 2D grid (L / N-DAM->Cells x = " + params::str(dx2) +
-                       " m); allowed: 2D subdomains of at least " +
-                       params::str(kMinimumColumns * dx2) + " m");
+    check_width(two_d, x0, x1);
   }
 }
 
