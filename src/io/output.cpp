@@ -134,6 +134,31 @@ void WallWriter::write(double t, const core::WallLoad& w) {
 
 void WallWriter::flush() { out_.flush(); }
 
+std::vector<double> WallWriter::state() const {
+  std::vector<double> v{static_cast<double>(series_.samples), series_.t_first, series_.t_last,
+                        series_.t_contact};
+  for (const Extreme* e : {&series_.force, &series_.normal, &series_.shear, &series_.p_foot,
+                           &series_.depth})
+    v.insert(v.end(), {e->max, e->t_max, e->min, e->t_min, e->last, e->impact, e->t_impact});
+  return v;
+}
+
+void WallWriter::restore(const std::vector<double>& v) {
+  if (v.size() != 4 + 5 * 7)
+    throw std::runtime_error("checkpoint: the wall series holds " + std::to_string(v.size()) +
+                             " numbers; allowed: 39");
+  series_.samples = static_cast<long>(v[0]);
+  series_.t_first = v[1];
+  series_.t_last = v[2];
+  series_.t_contact = v[3];
+  std::size_t q = 4;
+  for (Extreme* e : {&series_.force, &series_.normal, &series_.shear, &series_.p_foot,
+                     &series_.depth}) {
+    e->max = v[q++], e->t_max = v[q++], e->min = v[q++], e->t_min = v[q++];
+    e->last = v[q++], e->impact = v[q++], e->t_impact = v[q++];
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // HDF5 helpers
 // ---------------------------------------------------------------------------------------------

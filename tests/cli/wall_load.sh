@@ -87,6 +87,24 @@ print("restart: %d rows kept to the checkpoint, %d continued, identical to the s
       % (len(kept), len(a) - 1 - len(kept)))
 EOF
 
+# 2b. The same restart from the 0.6 s checkpoint into another directory (an independent run found
+#     its summary counting from the checkpoint: the first contact at the restart time and a third
+#     of the impact's peak): the new wall.csv holds the rows after 0.6 s only, and the summary of
+#     the series, taken from the checkpoint for the part before, is the straight run's.
+nd moved.xml moved 0.7 \
+   -e 's|<Parameter name="Fields"|<Parameter name="Restart from" type="string" value="cut_a/checkpoint.h5"/>&|'
+expect 0 "completed at t = 0.7 s" moved.xml
+python3 - <<'EOF2' || fail "a restart into another directory does not summarise the whole run's wall load"
+import json
+rows = open("moved/wall.csv").read().splitlines()[1:]
+assert rows and float(rows[0].split(",")[0]) > 0.6, "the new wall.csv starts at %s" % rows[0]
+wa = json.load(open("moved/summary.json"))["wall_load"]
+wb = json.load(open("straight/summary.json"))["wall_load"]
+assert wa == wb, [k for k in wb if wa.get(k) != wb[k]]
+print("restart into another directory: %d new rows, summary equal to the straight run's "
+      "(contact %.4f s)" % (len(rows), wa["first_contact_time"]))
+EOF2
+
 # 3. The coupled model with a dynamic layout: the 2D part at the wall, 5 cm at first, is rebuilt
 #    as it grows upstream at the impact (Margin 0.1 m: a part at a wall keeps its columns, so the
 #    paper's 0.3 m part would not move by 0.65 s); the series goes on, one row per step.

@@ -72,6 +72,10 @@ class WallWriter {
   void write(double t, const core::WallLoad& w);
   void flush();
   const Series& series() const { return series_; }
+  /// The series' statistics as numbers for the checkpoint, and back: a restart into another
+  /// directory has no earlier rows to read, and takes the statistics from its checkpoint.
+  std::vector<double> state() const;
+  void restore(const std::vector<double>& state);
 
  private:
   void add(double t, const core::WallLoad& w);
