@@ -6,7 +6,7 @@
 //       over the flowing part) at each common output time, and the velocity averaged over
 //       [0, L] against time (Fig. 14). Writes DIR/compare_errors.csv,
 //       DIR/average_velocity.csv and, when python3 with matplotlib is present, DIR/compare.png.
-//   granflow-study layout RUN --length L [--threshold E] [--margin M] [--min-length S]
+//   granflow-study layout RUN [--length L] [--threshold E] [--margin M] [--min-length S]
 //                  [--h-min H]
 //       A priori 2D/1D layout from a (fast, 1D) run: 2D wherever eps >= E at any output time
 //       on cells deeper than H, widened by M on both sides (paper section 4.1). The defaults
@@ -60,7 +60,7 @@ constexpr double kAverageLength = 0.2;
 int usage(std::ostream& os, int code) {
   os << "usage: granflow-study compare REF_RUN TEST_RUN [--times T ...] [--h-min H] [--u-min U]\n"
         "                      [--average-length L] [--out DIR]\n"
-        "       granflow-study layout RUN --length L [--threshold E] [--margin M]\n"
+        "       granflow-study layout RUN [--length L] [--threshold E] [--margin M]\n"
         "                      [--min-length S] [--h-min H]\n"
         "       granflow-study budget RUN [--from T0] [--to T1] [--stretch XA XB]\n"
         "                      [--dam DAM_RUN] [--cell-weights] [--out DIR]\n"
@@ -151,6 +151,9 @@ int compare_cmd(int argc, char** argv) {
   return 0;
 }
 
+nlohmann::json run_parameters(const std::string& run);
+double param(const nlohmann::json& s, std::initializer_list<const char*> path);
+
 int layout_cmd(int argc, char** argv) {
   if (argc < 3) return usage(std::cerr, 1);
   const std::string run = argv[2];
@@ -168,10 +171,25 @@ int layout_cmd(int argc, char** argv) {
     else if (a == "--h-min") h_min = v;
     else { std::cerr << "granflow-study: unknown option '" << a << "'\n"; return usage(std::cerr, 1); }
   }
-  if (!(length > 0)) {
-    std::cerr << "granflow-study: layout needs --length L (> 0), the channel length\n";
-    return 1;
-  }
+  // The channel length is the run's (summary.json): a --length that differs from it laid the
+  // profiles' columns on another channel and printed reversed intervals and intervals beyond
+  // the channel with exit 0 (an independent run); it is still accepted when it agrees.
+  const double run_length = param(run_parameters(run), {"Channel", "Length"});
+  if (length < 0) length = run_length;
+  auto refuse = [](const std::string& what) {
+    throw std::runtime_error(what);
+  };
+  if (std::abs(length - run_length) > 1e-9 * std::max(1.0, run_length))
+    refuse("--length " + granflow::params::str(length) + ": the run's channel is " +
+           granflow::params::str(run_length) + " m long; allowed: its length (or no --length)");
+  if (!(margin >= 0.0))
+    refuse("--margin " + granflow::params::str(margin) + ": allowed: a length >= 0 m");
+  if (!(min_length >= 0.0))
+    refuse("--min-length " + granflow::params::str(min_length) + ": allowed: a length >= 0 m");
+  if (!(threshold > 0.0))
+    refuse("--threshold " + granflow::params::str(threshold) + ": allowed: eps > 0");
+  if (!(h_min >= 0.0))
+    refuse("--h-min " + granflow::params::str(h_min) + ": allowed: a depth >= 0 m");
   const auto p = read_profiles(run + "/profiles.csv");
   const auto lay = propose_layout(p, length, threshold, margin, min_length, h_min);
   std::cout << "a priori layout from " << run << " (2D where eps >= " << threshold

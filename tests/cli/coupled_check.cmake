@@ -41,3 +41,20 @@ foreach(r ${rows})
     message(FATAL_ERROR "u_mean L2 error ${l2} > 5 % (${r})")
   endif()
 endforeach()
+# granflow-study layout takes the channel length from the run; a --length that is not the run's
+# (an independent run: reversed intervals and intervals beyond the channel, exit 0) or a
+# negative margin is refused with exit 2, naming the option and what is allowed.
+execute_process(COMMAND ${STUDY} layout coupled_check_ndam RESULT_VARIABLE code OUTPUT_VARIABLE out)
+if(NOT code EQUAL 0 OR NOT out MATCHES "a priori layout from coupled_check_ndam")
+  message(FATAL_ERROR "granflow-study layout without --length: exit ${code}: ${out}")
+endif()
+foreach(bad "--length;0.5;the run's channel is 1 m long" "--margin;-0.1;allowed: a length >= 0 m")
+  list(GET bad 0 opt)
+  list(GET bad 1 val)
+  list(GET bad 2 msg)
+  execute_process(COMMAND ${STUDY} layout coupled_check_ndam ${opt} ${val}
+                  RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT code EQUAL 2 OR NOT err MATCHES "${opt} ${val}: .*${msg}")
+    message(FATAL_ERROR "granflow-study layout ${opt} ${val}: exit ${code}, '${err}'")
+  endif()
+endforeach()
