@@ -111,6 +111,12 @@ int compare_cmd(int argc, char** argv) {
   if (times.empty())
     for (const auto& [t, p] : ref)
       if (at_time(test, t)) times.push_back(t);
+  // every time before any file is written (a refused time left header-only CSVs behind)
+  for (double t : times)
+    if (!at_time(ref, t) || !at_time(test, t)) {
+      std::cerr << "granflow-study: time " << t << " s is not an output time of both runs\n";
+      return 2;
+    }
   std::filesystem::create_directories(out);
   std::ofstream ce(out + "/compare_errors.csv"), av(out + "/average_velocity.csv");
   ce << "t,quantity,max_rel,l2_rel,points\n" << std::setprecision(8);

@@ -17,7 +17,7 @@ last column of the last 2D mesh (the wall column in a chute ending at a wall).
 
 Uses h5dump/h5ls (hdf5-tools), no Python HDF5 module.
 Usage: scripts/find_holes.py OUTPUT_DIR [--quiet]
-Exit status 1 if any hole was found, else 0."""
+Exit status 1 if any hole was found, 0 if none, 2 if the directory holds no 2D fields."""
 import bisect
 import json
 import re
@@ -82,7 +82,17 @@ def main():
         return 2
     out, quiet = sys.argv[1], "--quiet" in sys.argv[2:]
     f = f"{out}/fields.h5"
-    steps = re.findall(r"^(step_\d+)", run("h5ls", f), re.M)
+    # a run directory with 2D fields, or a message and exit 2 (not 1: that means holes found)
+    try:
+        steps = re.findall(r"^(step_\d+)", run("h5ls", f), re.M)
+    except (OSError, subprocess.CalledProcessError):
+        print(f"find_holes: no readable {f} (a granflow run directory with field output?)",
+              file=sys.stderr)
+        return 2
+    if not any(re.search(r"^ndam", run("h5ls", f"{f}/{g}"), re.M) for g in steps):
+        print(f"find_holes: {out} has no 2D (N-DAM) mesh in its fields: a DAM run has no cells "
+              "to look for holes in", file=sys.stderr)
+        return 2
     # the channel's right end: an outflow is open on every row (NdamConfig::outflow_right)
     outflow_end = False
     try:

@@ -48,6 +48,10 @@ for d in dirs:
         return num / den if den else float("nan")
 
     for a, b in windows:
+        if tc + a / 1e3 >= rows[-1]["t"]:  # the run ended before the window
+            print(f"  mean over +[{a:g}, {b:g}] ms: no rows (the run ends at +"
+                  f"{1e3 * (rows[-1]['t'] - tc):.0f} ms)")
+            continue
         print(f"  mean over +[{a:g}, {b:g}] ms: force {mean('force', a / 1e3, b / 1e3):7.1f}  "
               f"normal {mean('normal_force', a / 1e3, b / 1e3):7.1f}  shear "
               f"{mean('shear', a / 1e3, b / 1e3):6.1f} N/m  p_foot {mean('p_foot', a / 1e3, b / 1e3):7.0f} Pa")

@@ -58,3 +58,13 @@ foreach(bad "--length;0.5;the run's channel is 1 m long" "--margin;-0.1;allowed:
     message(FATAL_ERROR "granflow-study layout ${opt} ${val}: exit ${code}, '${err}'")
   endif()
 endforeach()
+# compare refuses a time that is not an output of both runs before it writes anything (an
+# independent run found header-only CSV files left behind)
+file(REMOVE_RECURSE coupled_check_bad)
+execute_process(COMMAND ${STUDY} compare coupled_check_ndam coupled_check_coupled --times 0.33
+                        --out coupled_check_bad
+                RESULT_VARIABLE code OUTPUT_QUIET ERROR_VARIABLE err)
+if(NOT code EQUAL 2 OR NOT err MATCHES "time 0.33 s is not an output time of both runs" OR
+   EXISTS coupled_check_bad)
+  message(FATAL_ERROR "compare --times 0.33: exit ${code}, '${err}', or files left behind")
+endif()
