@@ -465,6 +465,22 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                              : PressureIteration::Anderson;
   c.anderson_depth = pl.get<int>("Anderson depth");
   c.anderson_fallback = pl.get<std::string>("Anderson fallback") == "Newton-Krylov";
+  // Options of a part of the model that the scene does not use are refused by name, as an
+  // unused rheology parameter is: an independent run found 'Surface pressure' in a closed box
+  // and 'Pressure iteration' with the lagged coupling accepted without effect.
+  auto unused = [&](const char* name, const std::string& why) {
+    if (user && user->isParameter(name))
+      params::fail(pl, name, Teuchos::toString(user->getEntry(name).getAny(false)), why);
+  };
+  if (!c.free_surface)
+    for (const char* name : {"Surface pressure", "Surface cell mass"})
+      unused(name, "a setting of the free surface, and 'Free surface' = false; allowed: leave "
+                   "it out, or 'Free surface' = true");
+  if (c.pressure_coupling == PressureCoupling::Lagged)
+    for (const char* name :
+         {"Pressure iteration", "Anderson depth", "Anderson fallback", "Pressure Newton failure"})
+      unused(name, "a setting of the nonlinear pressure system, and 'Pressure coupling' = "
+                   "Lagged; allowed: leave it out, or 'Pressure coupling' = Nonlinear");
   if (c.pressure_newton.get<std::string>("Method") != "Jacobian-free Newton-Krylov")
     params::fail(pl.sublist("Pressure Newton"), "Method", c.pressure_newton.get<std::string>("Method"),
                  "the pressure system's residual contains the momentum and pressure solves, so "

@@ -367,3 +367,9 @@ granflow_cli_test(obstacles_cut 2 "N-DAM->Obstacles' = 0.2 0.3 0 0.02; 0 1 0.07 
 # completed with a mass defect of 1.5e-4 of the run's mass)
 granflow_cli_test(coupled_short_1d 2 "Decomposition->Interfaces' = \\{0.2, 0.2001\\}: give the 1D subdomain \\[0.2, 0.2001\\] m, narrower than 4 cells of the DAM's grid.*allowed: 1D subdomains of at least 0.02 m"
                   --check ${_cli}/bad_coupled_short_1d.xml)
+# options of a part of the model the scene does not use (an independent run: accepted without
+# effect), refused by name as an unused rheology parameter is
+granflow_cli_test(unused_surface_option 2 "N-DAM->Surface pressure' = Ghost fluid: a setting of the free surface, and 'Free surface' = false"
+                  --check ${_cli}/bad_unused_surface_option.xml)
+granflow_cli_test(unused_pressure_iteration 2 "N-DAM->Pressure iteration' = Newton-Krylov: a setting of the nonlinear pressure system, and 'Pressure coupling' = Lagged"
+                  --check ${_cli}/bad_unused_pressure_iteration.xml)

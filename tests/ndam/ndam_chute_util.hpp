@@ -53,7 +53,7 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   n.set("Initial x1", c.init_x1);
   n.set("Friction regularisation", c.m_c);
   n.set("Pressure coupling", c.coupling);
-  n.set("Pressure iteration", c.pressure_iteration);
+  if (c.coupling == "Nonlinear") n.set("Pressure iteration", c.pressure_iteration);
   n.set("Surface cell mass", c.surface_mass);
   n.set("Surface pressure", c.surface_pressure);
   if (c.newton_max > 0) n.sublist("Pressure Newton").set("Max Newton iterations", c.newton_max);

@@ -52,7 +52,7 @@ inline std::unique_ptr<ndam::NdamSolver> make(const Case& c, MPI_Comm comm = MPI
   if (!c.obstacles.empty()) n.set("Obstacles", c.obstacles);
   n.set("Pressure coupling", c.coupling);
   if (c.newton_continue) n.set("Pressure Newton failure", "Continue");
-  n.set("Pressure iteration", c.pressure_iteration);
+  if (c.coupling == "Nonlinear") n.set("Pressure iteration", c.pressure_iteration);
   if (c.newton_max > 0) n.sublist("Pressure Newton").set("Max Newton iterations", c.newton_max);
   if (c.newton_abs_tol > 0.0) {
     n.sublist("Pressure Newton").set("Absolute tolerance", c.newton_abs_tol);
