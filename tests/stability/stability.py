@@ -52,6 +52,8 @@ H_BOX = 0.15  # [m] the 2D box height of the Setup II scenes
 GRID = {
     "setup2_ndam": {"Time/End time": 0.75, "Output/Interval": 0.05, "N-DAM/Height": 0.3,
                     "N-DAM/Cells z": 60},
+    "setup2_ndam_bingham": {"Time/End time": 0.75, "Output/Interval": 0.05, "N-DAM/Height": 0.3,
+                            "N-DAM/Cells z": 60},
     "setup2_dam": {"Time/End time": 0.75, "Output/Interval": 0.05},
     "setup2_coupled": {"Time/End time": 0.75, "Output/Interval": 0.05, "N-DAM/Height": 0.3,
                        "N-DAM/Cells z": 60},
@@ -155,6 +157,9 @@ CASES = [
     # the step sequence; its ghost-fluid twin, 3.24 m/s, stays in the default suite)
     case("ndam_bingham_1Pa", "setup2_ndam",
          {"Rheology/Model": "Bingham", "Rheology/Yield stress": 1.0 * YS}),
+    # the shipped Bingham scene (100 Pa) as it is: an independent run found its wall column at
+    # 6.14 m/s (the wall-impact cell, stronger than at 1 Pa) on 2026-12-05
+    case("ndam_bingham_100Pa", "setup2_ndam_bingham", {}),
     # (10 kPa: 7.1 m/s at the gate's surface until 2026-12-05, 0.77 m/s since the roll-off of
     # the rotational update next to NaSt2D's surface; the material stays near the gate)
     case("ndam_bingham_10kPa", "setup2_ndam",
