@@ -182,20 +182,17 @@ int layout_cmd(int argc, char** argv) {
   // the channel with exit 0 (an independent run); it is still accepted when it agrees.
   const double run_length = param(run_parameters(run), {"Channel", "Length"});
   if (length < 0) length = run_length;
-  auto refuse = [](const std::string& what) {
-    throw std::runtime_error(what);
-  };
   if (std::abs(length - run_length) > 1e-9 * std::max(1.0, run_length))
-    refuse("--length " + granflow::params::str(length) + ": the run's channel is " +
+    throw std::runtime_error("--length " + granflow::params::str(length) + ": the run's channel is " +
            granflow::params::str(run_length) + " m long; allowed: its length (or no --length)");
   if (!(margin >= 0.0))
-    refuse("--margin " + granflow::params::str(margin) + ": allowed: a length >= 0 m");
+    throw std::runtime_error("--margin " + granflow::params::str(margin) + ": allowed: a length >= 0 m");
   if (!(min_length >= 0.0))
-    refuse("--min-length " + granflow::params::str(min_length) + ": allowed: a length >= 0 m");
+    throw std::runtime_error("--min-length " + granflow::params::str(min_length) + ": allowed: a length >= 0 m");
   if (!(threshold > 0.0))
-    refuse("--threshold " + granflow::params::str(threshold) + ": allowed: eps > 0");
+    throw std::runtime_error("--threshold " + granflow::params::str(threshold) + ": allowed: eps > 0");
   if (!(h_min >= 0.0))
-    refuse("--h-min " + granflow::params::str(h_min) + ": allowed: a depth >= 0 m");
+    throw std::runtime_error("--h-min " + granflow::params::str(h_min) + ": allowed: a depth >= 0 m");
   const auto p = read_profiles(run + "/profiles.csv");
   const auto lay = propose_layout(p, length, threshold, margin, min_length, h_min);
   std::cout << "a priori layout from " << run << " (2D where eps >= " << threshold

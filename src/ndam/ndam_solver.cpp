@@ -223,10 +223,8 @@ void NdamSolver::rest_state() {
     surface_conditions();
   }
   initial_pressure();
-  if (cfg_.free_surface) {
-    update_viscosity(p_);  // Coulomb factors with the initial pressure
-    update_profile_cache();
-  }
+  // Coulomb factors with the initial pressure (the column profiles above take no pressure)
+  if (cfg_.free_surface) update_viscosity(p_);
   u_new_ = u_;
   w_new_ = w_;
   p_new_ = p_;

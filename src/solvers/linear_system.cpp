@@ -112,8 +112,9 @@ struct LinearSystem::Impl {
   bool add_ascending = true;       // rows added in non-decreasing order (the models do)
   std::vector<LO> grp_rows;        // the rows that got entries, ascending
   std::vector<size_t> grp_start;   // CSR offsets of their grouped entries (grp_rows.size() + 1)
-  std::vector<GO> grp_col;         // grouped columns and values when the rows came unordered
-  std::vector<SC> grp_val;
+  std::vector<GO> grp_col;         // grouped columns, values and rows when the rows came
+  std::vector<SC> grp_val;         // unordered (a stable sort by row: grp_perm)
+  std::vector<LO> grp_row;
   std::vector<size_t> grp_perm;
   const GO* gcol = nullptr;        // the grouped entries (add_* themselves when ascending)
   const SC* gval = nullptr;
@@ -305,42 +306,40 @@ void reserve_eighth(V& v, size_t need) {
 // grp_val. Work in the number of triplets, none per row without entries.
 void LinearSystem::Impl::group_rows() {
   const size_t added = add_row.size();
-  const LO* rows = add_row.data();
-  if (!add_ascending) {
+  const LO* rows = add_row.data();  // the rows of the grouped entries, in their order
+  if (add_ascending) {
+    gcol = add_col.data();
+    gval = add_val.data();
+  } else {
     grp_perm.resize(added);
     for (size_t q = 0; q < added; ++q) grp_perm[q] = q;
     std::stable_sort(grp_perm.begin(), grp_perm.end(),
                      [&](size_t x, size_t y) { return add_row[x] < add_row[y]; });
     reserve_eighth(grp_col, added);
     reserve_eighth(grp_val, added);
+    reserve_eighth(grp_row, added);
     grp_col.resize(added);
     grp_val.resize(added);
-    std::vector<LO> sorted(added);
+    grp_row.resize(added);
     for (size_t q = 0; q < added; ++q) {
       grp_col[q] = add_col[grp_perm[q]];
       grp_val[q] = add_val[grp_perm[q]];
-      sorted[q] = add_row[grp_perm[q]];
+      grp_row[q] = add_row[grp_perm[q]];
     }
-    grp_perm.assign(sorted.begin(), sorted.end());  // (reused below as the sorted rows)
+    rows = grp_row.data();
     gcol = grp_col.data();
     gval = grp_val.data();
-  } else {
-    gcol = add_col.data();
-    gval = add_val.data();
   }
-  auto row_at = [&](size_t q) {
-    return add_ascending ? rows[q] : static_cast<LO>(grp_perm[q]);
-  };
   size_t distinct = 0;
   for (size_t q = 0; q < added; ++q)
-    if (q == 0 || row_at(q) != row_at(q - 1)) ++distinct;
+    if (q == 0 || rows[q] != rows[q - 1]) ++distinct;
   reserve_eighth(grp_rows, distinct);
   reserve_eighth(grp_start, distinct + 1);
   grp_rows.clear();
   grp_start.clear();
   for (size_t q = 0; q < added; ++q)
-    if (q == 0 || row_at(q) != row_at(q - 1)) {
-      grp_rows.push_back(row_at(q));
+    if (q == 0 || rows[q] != rows[q - 1]) {
+      grp_rows.push_back(rows[q]);
       grp_start.push_back(q);
     }
   grp_start.push_back(added);
