@@ -162,6 +162,18 @@ double InflowSeries::interp(const std::vector<double>& v, double t) const {
 }
 double InflowSeries::depth(double t) const { return interp(h_, t); }
 double InflowSeries::velocity(double t) const { return interp(u_, t); }
+double InflowSeries::discharge(double t0, double t1) const {
+  if (!(t1 > t0)) return 0.0;
+  auto q = [&](double t) { return depth(t) * velocity(t); };
+  double sum = 0.0, a = t0;
+  // the rows strictly inside (t0, t1) split the interval into pieces where h and u are linear
+  for (auto it = std::upper_bound(t_.begin(), t_.end(), t0); it != t_.end() && *it < t1; ++it) {
+    sum += (*it - a) / 6.0 * (q(a) + 4.0 * q(0.5 * (a + *it)) + q(*it));
+    a = *it;
+  }
+  sum += (t1 - a) / 6.0 * (q(a) + 4.0 * q(0.5 * (a + t1)) + q(t1));
+  return sum;
+}
 double InflowSeries::max_depth() const { return *std::max_element(h_.begin(), h_.end()); }
 
 namespace {

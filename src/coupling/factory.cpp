@@ -56,7 +56,10 @@ ndam::NdamConfig SubdomainFactory::ndam_config(double x0, double x1, Neighbours 
     cfg2.outflow_extrapolate = true;  // inside the accelerating flow, not its end
     cfg2.walls[static_cast<int>(ndam::Side::Right)].kind = ndam::WallKind::FreeSlip;
   }
-  if (n.upstream) cfg2.inflow = nullptr;  // the interface sets it (connect())
+  if (n.upstream) {  // the interface sets it (connect())
+    cfg2.inflow = nullptr;
+    cfg2.inflow_volume = nullptr;
+  }
   return cfg2;
 }
 

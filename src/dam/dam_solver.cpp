@@ -155,6 +155,7 @@ DamBoundary DamBoundary::from(const core::BoundarySpec& spec) {
     b.inflow = [s](double t, double) {
       return std::array<double, 2>{s.depth(t), s.velocity(t)};
     };
+    if (!s.is_constant()) b.volume = [s](double t0, double t1) { return s.discharge(t0, t1); };
   }
   return b;
 }
@@ -625,7 +626,14 @@ void DamSolver::step_once(double dt) {
                       double bc) -> std::array<double, 2> {
     const auto e = at(side == 0 ? 0 : n - 1);
     const auto s = gate_state(b, side, t_ + 0.5 * dt, x_end, hm[e], hum[e]);
-    return {s[0] * s[1], s[0] * s[1] * s[1] + 0.5 * bc * s[0] * s[0]};
+    // An inflow series: the gate state carries the series' discharge at t + dt/2 (every branch
+    // of gate_state); the mass that enters is the step's exact volume instead, the integral of
+    // h u over the step, so that a hydrograph's volume does not depend on where the steps fall
+    // (a gate shut inside a step admitted the midpoint's flux: -0.07 % with outputs every
+    // 0.013 s against 0.05 s). The momentum flux stays that of the state.
+    const double mass = b.volume ? (side == 0 ? 1.0 : -1.0) * b.volume(t_, t_ + dt) / dt
+                                 : s[0] * s[1];
+    return {mass, s[0] * s[1] * s[1] + 0.5 * bc * s[0] * s[0]};
   };
   std::array<double, 2> F_left{0.0, 0.0}, F_right{0.0, 0.0};
   const auto K_range = phys_.K_bounds();
@@ -800,7 +808,9 @@ void DamSolver::euler_stage(const std::vector<double>& h0, const std::vector<dou
     if (end && end->type == BoundaryType::Inflow && end->prescribed) {
       const auto e = at(f == 0 ? 0 : n - 1);
       const auto s = gate_state(*end, f == 0 ? 0 : 1, t, f == 0 ? x0_ : x1_, h[e], hu[e]);
-      Hm[fs] = s[0] * s[1];
+      // an inflow series: both stages take the step's exact mean discharge (their mean is
+      // then the step's volume; the stages' trapezoid rule depended on where steps fell)
+      Hm[fs] = end->volume ? (f == 0 ? 1.0 : -1.0) * end->volume(t_, t_ + dt) / dt : s[0] * s[1];
       Ha[fs] = s[0] * s[1] * s[1];
       P[fs] = 0.5 * s[0] * s[0];
       continue;

@@ -407,6 +407,8 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                          " m, Cells z " + std::to_string(c.grid.nz) + ")");
     }
     if (channel.right.type == core::BoundaryType::Outflow) {
+      if (!series.is_constant())
+        c.inflow_volume = [series](double t0, double t1) { return series.discharge(t0, t1); };
       c.outflow_right = true;
       c.walls[1].kind = WallKind::FreeSlip;  // zero-gradient w at the open end
     }

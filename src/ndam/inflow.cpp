@@ -176,6 +176,7 @@ void NdamSolver::set_inflow(std::function<std::array<double, 2>(double t)> provi
   if (!cfg_.free_surface || cfg_.periodic_x())
     throw params::InputError("N-DAM: an inflow needs 'Free surface' = true and a non-periodic box");
   cfg_.inflow = std::move(provider);
+  cfg_.inflow_volume = nullptr;  // an interface's inflow: its own ledger (inflow_mass_)
   cfg_.inflow_shape = shape;
   cfg_.inflow_pressure = pressure;
   cfg_.inflow_K = K;
@@ -190,14 +191,19 @@ void NdamSolver::set_inflow(std::function<std::array<double, 2>(double t)> provi
 // Markers of the gate: the open part of each row enters with the material velocity of its
 // face in the new state, u(-1, k) (the owner of column 0 injects).
 void NdamSolver::inject_markers(double dt, MarkerSet& markers) const {
-  if (!cfg_.inflow || mac_.slab.i0 != 0 || !(inflow_now_[0] > 0.0)) return;
+  if (!cfg_.inflow || mac_.slab.i0 != 0) return;
+  // An inflow series admits the exact volume of the step (and flushes its rows' remainders
+  // when the gate closes: MarkerSet::inject); a constant gate or a 1D-to-2D interface the
+  // strips' fluxes at t^n.
+  const double volume = cfg_.inflow_volume ? cfg_.inflow_volume(t_, t_ + dt) : -1.0;
+  if (!(inflow_now_[0] > 0.0) && volume < 0.0) return;
   std::vector<double> uf(static_cast<std::size_t>(cfg_.grid.nz), 0.0);
   const double dz = cfg_.grid.dz();
   for (int k = 0; k < cfg_.grid.nz; ++k) {
     const double open = std::clamp((inflow_now_[0] - k * dz) / dz, 0.0, 1.0);
     if (open > 0.0) uf[static_cast<std::size_t>(k)] = u_new_(-1, k);  // material velocity of the open part
   }
-  markers.inject(dt, inflow_now_[0], uf);
+  markers.inject(dt, inflow_now_[0], uf, volume);
 }
 
 std::vector<double> NdamSolver::inflow_faces() const {

@@ -22,6 +22,7 @@ struct FsCase {
   std::array<std::string, 4> walls{"Periodic", "Periodic", "Coulomb", "Free-slip"};
   std::string left = "Periodic", right = "Periodic";  // Channel ends
   double h_in = 0.06, u_in = 0.37;
+  std::string series_file;  // 'Inflow series file' of an Inflow left end (instead of h_in, u_in)
   std::string momentum = "Implicit";
   double cfl = 0.5;
   // pressure in tau_y and (13): "Lagged" or "Nonlinear" (NOX); Newton overrides when > 0
@@ -74,7 +75,9 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   chp.set("Length", c.lx);
   chp.set("Slope angle", c.slope_deg);
   chp.sublist("Left boundary").set("Type", c.left);
-  if (c.left == "Inflow") {
+  if (c.left == "Inflow" && !c.series_file.empty()) {
+    chp.sublist("Left boundary").set("Inflow series file", c.series_file);
+  } else if (c.left == "Inflow") {
     chp.sublist("Left boundary").set("Inflow depth", c.h_in);
     chp.sublist("Left boundary").set("Inflow velocity", c.u_in);
   }

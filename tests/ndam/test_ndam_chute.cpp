@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <fstream>
 #include <cmath>
 
 namespace {
@@ -401,6 +402,43 @@ TEST(NdamChute, GateInflowTransferAndInterfaceApi) {
       EXPECT_NEAR(pp[static_cast<std::size_t>(k)], gcos * (0.04 - (k + 0.5) * dz) * (1 + K) / 2, 1e-9)
           << "k = " << k;
     }
+  }
+}
+
+// A hydrograph through the 2D gate: an inflow series that opens to 4 cm, shuts inside 0.1 ms
+// at 0.05 s, then a triangular pulse (the depth rising to 3 cm and falling to 0 over 40 ms).
+// What enters must be its volume, int h u dt, whatever the steps. Before, the markers took the
+// left-point flux h(t^n) u dt per step and a row's remainder (up to one marker per row) stayed
+// behind when the opening fell below the row: an independent run lost 0.9 % of such a
+// hydrograph at 10 mm (1.3 % of the triangle) and gained 0.2 % at 5 mm. Now the step's exact
+// volume is admitted, closing rows hand on their remainders, and a shut gate turns what the
+// rows still hold into markers. Step caps 2e-3 s and 1.3e-3 s (the stable step is about 4e-3 s
+// here) put the step ends at different places around the series' rows. Asserted at 0.15 s,
+// after both pulses: the injected area within half a marker of the volume (the rounding of
+// the rows' remainders when the gate shuts), the box holding what was injected.
+TEST(NdamChute, GateSeriesAdmitsItsVolumeWhateverTheSteps) {
+  const std::string f = ::testing::TempDir() + "gate_pulse_series.csv";
+  std::ofstream(f) << "t,h,u\n0,0.04,0.37\n0.05,0.04,0.37\n0.0501,0,0.37\n0.08,0,0.5\n"
+                      "0.1,0.03,0.5\n0.12,0,0.5\n";
+  FsCase c = gate_chute();
+  c.series_file = f;
+  const auto series = core::InflowSeries::from_csv(f, "Inflow series file");
+  const double t_end = 0.15, exact = series.discharge(0.0, t_end);
+  for (double cap : {2e-3, 1.3e-3}) {
+    auto s = make_fs(c);
+    double in = 0.0;
+    while (s->time() < t_end - 1e-12) {
+      const double dt = std::min({s->stable_dt(), cap, t_end - s->time()});
+      s->step(dt);
+      ASSERT_TRUE(s->check().ok);
+      s->accept();
+      in += s->last_transfer().in;
+    }
+    const double a = s->markers()->marker_area();
+    std::printf("[measured] gate series, cap %.1e s: injected %.6e m^2, volume %.6e m^2, "
+                "difference %.3f markers\n", cap, in, exact, (in - exact) / a);
+    EXPECT_LE(std::abs(in - exact), 0.5 * a + 1e-12 * exact) << "cap " << cap;
+    EXPECT_NEAR(s->mass_balance().current, in, 1e-12 * exact);
   }
 }
 

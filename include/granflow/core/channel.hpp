@@ -21,6 +21,9 @@ class InflowSeries {
   static InflowSeries from_csv(const std::string& file, const std::string& parameter_path);
   double depth(double t) const;
   double velocity(double t) const;
+  /// The volume per unit width that enters in [t0, t1], the integral of h(t) u(t) [m^2]: exact
+  /// for the piecewise-linear series (Simpson's rule between its rows, where h u is quadratic).
+  double discharge(double t0, double t1) const;
   bool is_constant() const { return t_.size() <= 1; }
   /// The deepest opening of the series (its largest h row).
   double max_depth() const;

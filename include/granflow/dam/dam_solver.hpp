@@ -102,6 +102,9 @@ struct DamBoundary {
   core::BoundaryType type = core::BoundaryType::Outflow;
   std::function<std::array<double, 2>(double t, double x)> inflow;  ///< (t, x) -> {h, u}
   bool prescribed = false;  ///< Inflow only: a prescribed inflow (true) or an interface (false)
+  /// A prescribed inflow series (not constant): the volume per unit width that enters in
+  /// [t0, t1], the exact integral of h u; empty otherwise.
+  std::function<double(double t0, double t1)> volume;
   static DamBoundary from(const core::BoundarySpec& spec);
 };
 

@@ -136,12 +136,19 @@ class MarkerSet {
   ///
   /// This overload: q_r = int_strip u_in(z) dz (3-point Gauss per strip, exact for profiles of
   /// degree <= 5), so the total is int_0^h_in u_in dz = h_in u_mean.
-  void inject(double dt, double h_in, const std::function<double(double z)>& u_in);
+  ///
+  /// volume >= 0: the step's inflow volume is prescribed (an inflow series: the integral of
+  /// h u over the step); the strips' fluxes are scaled to it. Strips that closed hand their
+  /// remainders to the highest open row, and a closed opening (h_in <= 0) turns the rows'
+  /// remainders into markers (their rounded sum), so that a hydrograph's volume enters to
+  /// within half a marker.
+  void inject(double dt, double h_in, const std::function<double(double z)>& u_in,
+              double volume = -1.0);
   /// This overload: q_r = u_face[k] s_r with k the cell row of the strip; u_face[k] is the mean
   /// inflow velocity over the OPENING part of the face of row k (for a face only partly below
   /// h_in this differs from a face value u(-1,k) that carries the flux u(-1,k) dz: pass
   /// u(-1,k) dz / (opening part of the face) there).
-  void inject(double dt, double h_in, const std::vector<double>& u_face);
+  void inject(double dt, double h_in, const std::vector<double>& u_face, double volume = -1.0);
   /// The fractional accumulators of the injection rows (for checkpoints and tests).
   const std::vector<double>& inflow_accumulators() const { return acc_; }
   void set_inflow_accumulators(const std::vector<double>& a) { acc_ = a; }
@@ -218,7 +225,7 @@ class MarkerSet {
   bool obstacle_at(double x, double z) const;  // x within G columns of the slab
   void wall(double& x, double& z) const;       // reflect at wall/inflow sides
   void inject_rows(double dt, double h_in,
-                   const std::function<double(double zb, double zt)>& strip_flux);
+                   const std::function<double(double zb, double zt)>& strip_flux, double volume);
   // Sends the n values `first` (of this rank's first columns) to the left neighbour and `last`
   // to the right one; receives the left neighbour's last columns into ghost_left and the right
   // one's first columns into ghost_right; where there is no neighbour, fills with `fill`.

@@ -119,6 +119,9 @@ struct NdamConfig {
   double m_c = 100.0;  ///< [s/m] regularisation of the Coulomb friction factor (12)
   double x0 = 0.0;     ///< grid origin along the slope [m] (2D subdomains of the coupled model)
 
+  /// An inflow series (not a constant gate): the volume per unit width that enters in
+  /// [t0, t1], the exact integral of h u (InflowSeries::discharge); empty function otherwise.
+  std::function<double(double t0, double t1)> inflow_volume;
   bool periodic_x() const { return walls[0].kind == WallKind::Periodic; }
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
   /// The validated defaults of the 'Momentum solver', 'Pressure solver' and 'Pressure Newton'
