@@ -541,6 +541,13 @@ bool make_entry(const std::string& type, const std::string& text, Teuchos::Param
   return true;
 }
 
+// The text without the white space at its ends.
+std::string trimmed(const std::string& s) {
+  const auto a = s.find_first_not_of(" \t\r\n");
+  if (a == std::string::npos) return "";
+  return s.substr(a, s.find_last_not_of(" \t\r\n") - a + 1);
+}
+
 struct Reader {
   const std::string& file;
 
@@ -588,6 +595,14 @@ struct Reader {
 
   void read_list(const Teuchos::XMLObject& x, const std::string& path, ParameterList& out,
                  const ParameterList* valid, bool names_checked) const {
+    // Text inside a list is no parameter, and Teuchos drops it: a value written as the
+    // element's text (<ParameterList name="Time"> 2.0 </ParameterList>, or a stray word) was
+    // ignored silently and the scene called valid.
+    for (int l = 0; l < x.numContentLines(); ++l)
+      if (const std::string t = trimmed(x.getContentLine(l)); !t.empty())
+        fail("list '" + path + "'", "text " + shown(t) +
+                                        " between its elements; allowed: only <Parameter> and "
+                                        "<ParameterList> elements (and comments)");
     std::map<std::string, std::string> seen;  // name -> text of its first value
     for (int c = 0; c < x.numChildren(); ++c) {
       const auto& child = x.getChild(c);
@@ -607,6 +622,12 @@ struct Reader {
       const std::string p = path + "->" + name;
       std::string why;
       check_attributes(child, param(p));
+      if (tag == "Parameter")
+        for (int l = 0; l < child.numContentLines(); ++l)
+          if (const std::string t = trimmed(child.getContentLine(l)); !t.empty())
+            fail(param(p), "text " + shown(t) +
+                               " inside the element; allowed: the value in value=\"...\" and "
+                               "nothing between <Parameter ...> and </Parameter>");
       if (!check_text(name, why)) fail(param(path + "->" + shown(name)), "the name is " + why);
       const std::string text_here =
           tag == "Parameter" && child.hasAttribute("value") ? child.getAttribute("value") : "";
@@ -758,7 +779,11 @@ XmlDocument parse_xml(const std::string& file) {
   if (!in) throw InputError("cannot open scene file '" + file + "' (no such file or not readable)");
   std::ostringstream buf;
   buf << in.rdbuf();
-  const std::string text = expand_character_references(buf.str());
+  std::string raw = buf.str();
+  // A UTF-8 byte-order mark (editors on Windows write one) is no character of the document;
+  // Teuchos' reader took it for text outside the top element.
+  if (raw.compare(0, 3, "\xEF\xBB\xBF") == 0) raw.erase(0, 3);
+  const std::string text = expand_character_references(raw);
   check_nesting(text, file);
   XmlDocument doc{file, Teuchos::XMLObject()};
   try {

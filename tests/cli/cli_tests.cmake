@@ -46,6 +46,16 @@ granflow_cli_test(series_is_directory 2 "Inflow series file' = .*: is a director
 granflow_cli_test(output_directory_uncreatable 2
                   "Output->Directory' = ./proc/granflow_cannot_create/out.: the run cannot create it .*allowed: a directory that can be created and written"
                   --check ${_cli}/bad_output_uncreatable.xml)
+# text where Teuchos ignores it (a value written as an element's text) is refused; a UTF-8
+# byte-order mark is dropped (an independent run: the first was a silent "valid scene", the
+# second a parse error that did not say why)
+granflow_cli_test(stray_text_in_list 2
+                  "list 'granflow->Time': text \"2.0\" between its elements"
+                  --check ${_cli}/bad_stray_text.xml)
+granflow_cli_test(text_inside_parameter 2
+                  "parameter 'granflow->Time->End time': text \"0.5\" inside the element"
+                  --check ${_cli}/bad_parameter_text.xml)
+granflow_cli_test(byte_order_mark 0 "valid scene" --check ${_cli}/bom_scene.xml)
 granflow_cli_test(scene_is_directory 2 "scene file '.*' is a directory; allowed: a ParameterList XML file"
                   --check ${_cli})
 granflow_cli_test(ndam_layer_outside 2
@@ -155,6 +165,23 @@ granflow_cli_test(coupled_delta1d_above_phi 2 "DAM->Bed friction angle' = 34.*mu
 # decreasing interface positions (equal ones are allowed: a zero-length subdomain is left out)
 granflow_cli_test(coupled_interfaces_decrease 2 "Decomposition->Interfaces.*0.7, 0.2.*must not decrease"
                   ${_cli}/bad_coupled_order.xml)
+
+# granflow-study compare: runs of different channels are refused (a 1 m chute against the 2 m
+# lab chute gave a table and exit 0 before); the same channel at another resolution is compared
+# (profiles.csv of three hand-made runs in tests/cli/study_runs: 1 m in 20 and 40 cells, 2 m)
+foreach(_c IN ITEMS "different_channels;2;runs cover different channels;chute_2m"
+                    "same_channel_finer;0;u L2 rel;chute_1m_fine")
+  list(GET _c 0 _n)
+  list(GET _c 1 _code)
+  list(GET _c 2 _re)
+  list(GET _c 3 _other)
+  add_test(NAME cli.compare_${_n}
+           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow-study>
+                   "-DARGS=compare ${_cli}/study_runs/chute_1m ${_cli}/study_runs/${_other} --times 0.5 --out compare_${_n}"
+                   -DEXPECTED_CODE=${_code} -DREGEX=${_re} -P ${_cli}/run_cli.cmake
+           WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+  set_tests_properties(cli.compare_${_n} PROPERTIES LABELS "cli")
+endforeach()
 
 # coupled 2D/1D/2D against full 2D (Setup II, coarse)
 add_test(NAME coupled.setup2_against_full_2d
