@@ -19,6 +19,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <iostream>
 #include <sstream>
 
@@ -316,6 +317,19 @@ void Simulation::write_checkpoint() {
   c.set_text("run/max_speed_quantity", max_speed_.quantity);
   // and the wall load's statistics (a restart into another directory has no rows to re-read)
   if (io_rank() && io_->wall_on) c.set("run/wall_series", io_->wall.state());
+  // the layouts of the outputs so far (summary.json's positions_over_time, which a restart
+  // lost before: it began at the first output after the restart), one line per entry, the
+  // numbers with 17 digits so that they read back as the same doubles
+  {
+    std::ostringstream os;
+    os << std::setprecision(17);
+    for (const auto& [lt, pieces] : layouts_) {
+      os << lt;
+      for (const auto& p : pieces) os << ' ' << p.model << ' ' << p.x0 << ' ' << p.x1;
+      os << '\n';
+    }
+    c.set_text("run/layouts", os.str());
+  }
   c.set_text(kSceneKey, joined(canonical_));
   c.set_text(kIdentityKey, identity_);
   model_->save(c);
@@ -649,6 +663,18 @@ int Simulation::advance(const io::Checkpoint& ck) {
   // that is no output time) writes at the same times as a straight run. k Interval, not a sum
   // of Intervals: the same double in both runs.
   origin_ = restarted_ && ck.has_scalar("run/origin") ? ck.scalar("run/origin") : t0_;
+  if (restarted_ && ck.has_text("run/layouts")) {
+    layouts_.clear();
+    std::istringstream is(ck.text("run/layouts"));
+    for (std::string line; std::getline(is, line);) {
+      std::istringstream ls(line);
+      double lt = 0.0;
+      if (!(ls >> lt) || lt > t0_ + 1e-12 * (1.0 + std::abs(t0_))) continue;
+      std::vector<LayoutPiece> pieces;
+      for (LayoutPiece p; ls >> p.model >> p.x0 >> p.x1;) pieces.push_back(p);
+      layouts_.emplace_back(lt, std::move(pieces));
+    }
+  }
   if (restarted_ && ck.arrays().count("run/max_speed") && ck.has_text("run/max_speed_quantity")) {
     const auto& v = ck.array("run/max_speed");
     max_speed_ = Speed{v.at(0), v.at(2), v.at(3), ck.text("run/max_speed_quantity")};

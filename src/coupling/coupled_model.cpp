@@ -74,8 +74,11 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
                "column becomes 1D; at least 'Check interval'",
                0.0, 1e6);
     add_double(*pl, "Check interval", d.check_interval,
-               "[s] Dynamic layout: time between two evaluations of the layout (at the end of "
-               "the first accepted step at or after each multiple)",
+               "[s] Dynamic layout: the longest time between two evaluations of the layout (at "
+               "the end of the first accepted step at or after each multiple); a check comes "
+               "earlier when a wave or shock could cross the margin before it: after at most "
+               "max(Margin, one slot) / max(|u_mean| + sqrt(g cos(zeta) K_act h)) of the "
+               "channel at the last check (summary.json: checks_brought_forward)",
                1e-9, 1e6);
     add_double(*pl, "Rest speed", d.rest_speed,
                "[m/s] Dynamic layout: material moving slower than this (|u_mean|) is at rest: a "

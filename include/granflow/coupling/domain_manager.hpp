@@ -94,6 +94,7 @@ class DomainManager {
   std::vector<SlotState> slots_;
   std::vector<Move> log_;
   long checks_ = 0;
+  long checks_by_speed_ = 0;  ///< checks brought before the interval by the signal speed
   double seconds_checks_ = 0.0;
 };
 
