@@ -59,6 +59,7 @@ ndam::NdamConfig SubdomainFactory::ndam_config(double x0, double x1, Neighbours 
   if (n.upstream) {  // the interface sets it (connect())
     cfg2.inflow = nullptr;
     cfg2.inflow_volume = nullptr;
+    cfg2.wall_left = false;
   }
   return cfg2;
 }

@@ -188,7 +188,9 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "(Implicit momentum only; not yet robust for viscous flows, nu = 0.3 m^2/s: "
              "docs/validation.md, stability suite, case 3)",
              {"Full cell", "Material share"});
-    add_enum(*pl, "Surface pressure", d.ghost_surface ? "Ghost fluid" : "Surface cells",
+    add_enum(*pl, "Surface pressure",
+             !d.ghost_surface ? "Surface cells"
+                              : (d.ghost_wall_columns > 0 ? "Ghost fluid at walls" : "Ghost fluid"),
              "how the free surface enters the projection. Surface cells: NaSt2D's and the "
              "paper's; Surface cells are Dirichlet cells (p = 0 at the marker depth, "
              "hydrostatically offset to the cell centre) and their faces to Empty cells follow "
@@ -197,8 +199,11 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "a pressure unknown like a Fluid cell; p = 0 is imposed where the surface crosses "
              "the line to each Empty neighbour (a ghost value, Gibou et al. 2002) and those "
              "faces are momentum unknowns; the wall-impact sheet is braked (docs/numerics.md, "
-             "\"Ghost-fluid free surface\"). Not yet with Pressure coupling = Nonlinear",
-             {"Surface cells", "Ghost fluid"});
+             "\"Ghost-fluid free surface\"). Ghost fluid at walls: the ghost-fluid cells in the "
+             "two columns next to a wall end of the channel (where a layer meets the wall), "
+             "NaSt2D's Surface cells elsewhere (docs/numerics.md, \"Ghost fluid at walls\"). "
+             "The ghost fluid not yet with Pressure coupling = Nonlinear",
+             {"Surface cells", "Ghost fluid", "Ghost fluid at walls"});
     add_double(*pl, "Initial depth", d.initial_depth,
                "[m] free surface: material layer z < depth at t = 0 on [Initial x0, Initial x1) "
                "(0: the chute starts empty)",
@@ -307,7 +312,11 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                  "the material share weights the mass of the implicit momentum step; with "
                  "Momentum = Explicit it would divide the explicit viscous stress by it; "
                  "allowed with Explicit: Full cell");
-  c.ghost_surface = pl.get<std::string>("Surface pressure") == "Ghost fluid";
+  {
+    const std::string sp = pl.get<std::string>("Surface pressure");
+    c.ghost_surface = sp != "Surface cells";
+    c.ghost_wall_columns = sp == "Ghost fluid at walls" ? kGhostWallColumns : 0;
+  }
   c.gamma = pl.get<double>("Donor-cell weight");
   if (c.grid.nx < 2 * ranks)
     params::fail(pl, "Cells x", Teuchos::toString(c.grid.nx),
@@ -379,6 +388,7 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
   // takes the silo gate (Left Inflow, Channel->Left boundary depth and velocity) and an open
   // outflow (Right Outflow), so 1D and 2D scenes of one setup read the same Channel.
   const bool ch_periodic = channel.left.type == core::BoundaryType::Periodic;
+  c.wall_left = channel.left.type == core::BoundaryType::Wall;
   if (c.free_surface && !ch_periodic) {
     const bool lok = channel.left.type == core::BoundaryType::Wall ||
                      channel.left.type == core::BoundaryType::Inflow;
@@ -397,6 +407,8 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
       c.inflow = [series](double t) {
         return std::array<double, 2>{series.depth(t), series.velocity(t)};
       };
+      if (!series.is_constant())
+        c.inflow_volume = [series](double t0, double t1) { return series.discharge(t0, t1); };
       if (series.max_depth() >= top)
         params::fail(where.sublist("Left boundary"),
                      series.is_constant() ? "Inflow depth" : "Inflow series file",
@@ -407,8 +419,6 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                          " m, Cells z " + std::to_string(c.grid.nz) + ")");
     }
     if (channel.right.type == core::BoundaryType::Outflow) {
-      if (!series.is_constant())
-        c.inflow_volume = [series](double t0, double t1) { return series.discharge(t0, t1); };
       c.outflow_right = true;
       c.walls[1].kind = WallKind::FreeSlip;  // zero-gradient w at the open end
     }
@@ -458,9 +468,10 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
   // gate chute of the tests 1.8e-3 against 1e-5 at its first steps).
   if (c.pressure_coupling == PressureCoupling::Nonlinear && c.ghost_surface && c.free_surface)
     params::fail(pl, "Pressure coupling", "Nonlinear",
-                 "the nonlinear pressure system does not converge yet with 'Surface pressure' = "
-                 "Ghost fluid; allowed with Ghost fluid: Lagged (or Nonlinear with 'Surface "
-                 "pressure' = Surface cells)");
+                 "the nonlinear pressure system does not converge yet with 'Surface pressure' = " +
+                     pl.get<std::string>("Surface pressure") +
+                     "; allowed with it: Lagged (or Nonlinear with 'Surface pressure' = Surface "
+                     "cells)");
   c.newton_failure_continue = pl.get<std::string>("Pressure Newton failure") == "Continue";
   c.pressure_iteration = pl.get<std::string>("Pressure iteration") == "Newton-Krylov"
                              ? PressureIteration::NewtonKrylov

@@ -319,7 +319,7 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
         const int o = q ^ 1;  // opposite face
         if ((m & bit[q]) && !(m & bit[o])) *face[q] = *face[o];
       }
-      if (mac_.ghost_surface) {  // a thin cell: no continuity (see above)
+      if (mac_.ghost_surface && mac_.in_ghost_zone(gi)) {  // a thin cell: no continuity (see above)
         if ((m & empty_side::Left) && (m & empty_side::Right) && k > 0) {
           *face[0] = u(i - 1, k - 1);  // both sides empty: the faces below
           *face[1] = u(i, k - 1);

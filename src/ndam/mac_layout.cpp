@@ -76,7 +76,7 @@ void MacLayout::classify_surface_pressure() {
   for (int gi = 0; gi < nx; ++gi)
     for (int k = 0; k < nz; ++k) {
       const auto q = static_cast<std::size_t>(gi * nz + k);
-      if (flags[q] != CellFlag::Surface) continue;
+      if (flags[q] != CellFlag::Surface || !in_ghost_zone(gi)) continue;
       // A Surface cell with material above it is inside; one under an Empty cell holds the
       // surface, at the column's depth, and is inside when its centre lies at least
       // kThetaMin dz below it.

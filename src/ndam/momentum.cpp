@@ -124,6 +124,7 @@ void NdamSolver::viscous_w(int i, int k, Emit&& e) const {
 bool NdamSolver::surface_upwind(int i1, int k1, int i2, int k2) const {
   if (!mac_.ghost_surface) return false;
   const int g1 = mac_.slab.i0 + std::min(i1, i2), g2 = mac_.slab.i0 + std::max(i1, i2);
+  if (!mac_.in_ghost_zone(g1 - 1) && !mac_.in_ghost_zone(g2 + 1)) return false;
   return any_flag(g1 - 1, g2 + 1, std::min(k1, k2) - 1, std::max(k1, k2) + 1,
                   [](CellFlag f) { return f == CellFlag::Empty; });
 }

@@ -64,6 +64,13 @@ void NdamSolver::setup() {
   const bool per = cfg_.periodic_x();
   mac_.dirichlet_inflow_column = cfg_.inflow_pressure == InflowPressure::Dirichlet;
   mac_.ghost_surface = cfg_.free_surface && cfg_.ghost_surface;
+  // Ghost fluid at walls: the zone next to each wall end of this box (a 2D subdomain's ends at
+  // interfaces are an open outflow on the right and an inflow on the left, no walls)
+  mac_.ghost_zone_all = cfg_.ghost_wall_columns <= 0;
+  if (!per && cfg_.ghost_wall_columns > 0) {
+    mac_.wall_columns_right = cfg_.outflow_right ? 0 : cfg_.ghost_wall_columns;
+    mac_.wall_columns_left = cfg_.wall_left ? cfg_.ghost_wall_columns : 0;
+  }
   const int nxl = mac_.slab.nx_local;
   u_ = Field(nxl, nz);
   w_ = Field(nxl, nz);

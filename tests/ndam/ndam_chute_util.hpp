@@ -32,7 +32,9 @@ struct FsCase {
   std::string pressure_iteration = "Anderson fixed point";  // or "Newton-Krylov"
   double x0 = 0.0;  // grid origin along the slope (NdamConfig::x0, as a 2D subdomain has)
   std::string surface_mass = "Full cell";  // 'Surface cell mass' ("Material share")
-  std::string surface_pressure = "Surface cells";  // 'Surface pressure' ("Ghost fluid")
+  // 'Surface pressure' ("Surface cells", "Ghost fluid", "Ghost fluid at walls"); empty: the
+  // default, except with Nonlinear coupling, which needs NaSt2D's Surface cells
+  std::string surface_pressure;
   double pressure_threshold = -1.0;  // 'Pressure solver->Stiff threshold' when >= 0
 };
 
@@ -56,7 +58,8 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   n.set("Pressure coupling", c.coupling);
   if (c.coupling == "Nonlinear") n.set("Pressure iteration", c.pressure_iteration);
   n.set("Surface cell mass", c.surface_mass);
-  n.set("Surface pressure", c.surface_pressure);
+  if (!c.surface_pressure.empty()) n.set("Surface pressure", c.surface_pressure);
+  else if (c.coupling == "Nonlinear") n.set("Surface pressure", std::string("Surface cells"));
   if (c.newton_max > 0) n.sublist("Pressure Newton").set("Max Newton iterations", c.newton_max);
   if (c.newton_abs_tol > 0.0) {
     n.sublist("Pressure Newton").set("Absolute tolerance", c.newton_abs_tol);

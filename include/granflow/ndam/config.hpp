@@ -56,6 +56,13 @@ struct Wall {
 /// from a default-constructed one. The members without a parameter of their own (the gate, the
 /// open outflow, x0, the interface options) come from the Channel (from_parameters) or from the
 /// coupled model (SubdomainFactory, Interface).
+/// 'Surface pressure' = Ghost fluid at walls: the columns next to a wall end of the channel
+/// whose Surface cells are ghost-fluid cells. The wall-impact sheet of NaSt2D's surface is one
+/// column wide at every resolution (docs/validation.md). Of 2, 3 and 4 columns measured on the
+/// stability suite, 2 was best (with 3 or 4 the nu = 1e-5 case reached 5.8 / 5.4 m/s at the
+/// edge of the zone, x = 0.983 m, against 4.37 m/s with 2).
+constexpr int kGhostWallColumns = 2;
+
 struct NdamConfig {
   Grid grid{64, 32, 1.0, 0.15};  ///< lx: the Channel's length (from_parameters)
   Momentum momentum = Momentum::Implicit;
@@ -99,14 +106,22 @@ struct NdamConfig {
   /// 'Surface pressure' = Ghost fluid: Surface cells whose centre lies below the free surface
   /// are pressure unknowns, with p = 0 imposed at the surface's position on the faces to their
   /// Empty neighbours (a ghost value), and those faces are momentum unknowns
-  /// (free_surface.cpp); false: NaSt2D's Surface cells as Dirichlet cells whose empty faces
-  /// follow continuity.
-  bool ghost_surface = false;
+  /// (free_surface.cpp); false ('Surface cells'): NaSt2D's Surface cells as Dirichlet cells
+  /// whose empty faces follow continuity.
+  bool ghost_surface = true;
+  /// With ghost_surface: > 0 confines the ghost-fluid cells to this many columns next to a wall
+  /// end of the channel ('Surface pressure' = Ghost fluid at walls, the default since
+  /// 2026-12-05: NaSt2D's Surface cells elsewhere); 0: everywhere ('Ghost fluid').
+  int ghost_wall_columns = kGhostWallColumns;
+  bool wall_left = false;  ///< the box's left end is a wall of the channel (no gate, no interface)
   /// Initial layer z < initial_depth on initial_x0 <= x < initial_x1 (0: no initial material);
   /// the default end 1e30 m lies beyond any channel: the layer reaches the end of the box.
   double initial_depth = 0.0, initial_x0 = 0.0, initial_x1 = 1e30;
   /// Silo gate at x = x0 (left side): {h_in, u_in} at time t; empty function: no inflow.
   std::function<std::array<double, 2>(double t)> inflow;
+  /// An inflow series (not a constant gate): the volume per unit width that enters in
+  /// [t0, t1], the exact integral of h u (InflowSeries::discharge); empty function otherwise.
+  std::function<double(double t0, double t1)> inflow_volume;
   InflowShape inflow_shape = InflowShape::Uniform;
   /// How the pressure of eq. (26) enters on the inflow column (see InflowPressure).
   InflowPressure inflow_pressure = InflowPressure::None;
@@ -119,9 +134,6 @@ struct NdamConfig {
   double m_c = 100.0;  ///< [s/m] regularisation of the Coulomb friction factor (12)
   double x0 = 0.0;     ///< grid origin along the slope [m] (2D subdomains of the coupled model)
 
-  /// An inflow series (not a constant gate): the volume per unit width that enters in
-  /// [t0, t1], the exact integral of h u (InflowSeries::discharge); empty function otherwise.
-  std::function<double(double t0, double t1)> inflow_volume;
   bool periodic_x() const { return walls[0].kind == WallKind::Periodic; }
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
   /// The validated defaults of the 'Momentum solver', 'Pressure solver' and 'Pressure Newton'

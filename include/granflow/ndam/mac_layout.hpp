@@ -58,6 +58,17 @@ class MacLayout {
   /// are momentum unknowns as in NaSt2D.
   bool ghost_surface = false;
   std::vector<std::uint8_t> inside;  ///< Surface cells that are pressure unknowns, gi * nz + k
+  /// 'Surface pressure' = Ghost fluid at walls: the ghost-fluid treatment (pressure unknowns
+  /// in Surface cells, ghost faces, the upwind convection and the thin-cell rule next to Empty
+  /// cells) only in the columns gi < wall_columns_left and gi >= nx - wall_columns_right, the
+  /// columns next to a wall end of the channel; NaSt2D's Surface cells elsewhere. Both 0 with
+  /// 'Ghost fluid' means everywhere (ghost_zone_all).
+  bool ghost_zone_all = true;
+  int wall_columns_left = 0, wall_columns_right = 0;
+  bool in_ghost_zone(int gi) const {
+    return ghost_zone_all || (wall_columns_left > 0 && gi < wall_columns_left) ||
+           (wall_columns_right > 0 && gi >= grid.nx - wall_columns_right);
+  }
   /// The smallest distance, in cells, from a pressure unknown's centre to the free surface: a
   /// Surface cell whose centre lies less deep stays a Dirichlet cell (its neighbour below then
   /// sees p = 0 at the surface, as a ghost would place it), and ghost distances are clamped to
