@@ -73,6 +73,20 @@ for scene in scenes:
             if not a or len(a) != len(b) or diff:
                 failed.append(f"{base}: the restarted run differs from the straight run at t = {t} s "
                               f"({diff} of {len(a)} rows)")
+        # the record of the layout: summary.json's layout at every output and the domain
+        # manager's moves with their layouts (a restart kept only the moves' numbers, and the
+        # layout history began at the restart; an independent run, 2026-12-05)
+        sa, sb = (json.load(open(os.path.join(d, r, "summary.json"))) for r in ("straight", "second"))
+        la, lb_ = sa["interfaces"]["positions_over_time"], sb["interfaces"]["positions_over_time"]
+        print(f"{base}: layouts recorded: straight {len(la)}, restarted {len(lb_)}")
+        if la != lb_:
+            failed.append(f"{base}: positions_over_time of the restarted run differ: {lb_} against {la}")
+        ma = sa["solver_statistics"].get("coupled", {}).get("domain_manager", {}).get("log", [])
+        mb = sb["solver_statistics"].get("coupled", {}).get("domain_manager", {}).get("log", [])
+        key = lambda m: (m["t"], m["before"], m["after"])
+        if [key(m) for m in ma] != [key(m) for m in mb]:
+            failed.append(f"{base}: the restarted run's moves differ in time or layout: "
+                          f"{[key(m) for m in mb]} against {[key(m) for m in ma]}")
 if failed:
     sys.exit("\n".join(failed))
 print("every restart continues bit for bit")
