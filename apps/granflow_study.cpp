@@ -304,6 +304,12 @@ int budget_cmd(int argc, char** argv) {
     else if (a == "--out") out = next();
     else { std::cerr << "granflow-study: unknown option '" << a << "'\n"; return usage(std::cerr, 1); }
   }
+  // a reversed window said only "fewer than two field snapshots" (an independent run)
+  if (!(t0 < t1)) {
+    std::cerr << "granflow-study: --from " << t0 << " s is not before --to " << t1
+              << " s; the budget averages the snapshots in [--from, --to]\n";
+    return 2;
+  }
   const auto sum = run_parameters(run);
   if (sum.at("model") != "N-DAM")
     throw std::runtime_error(run + " is a " + sum.at("model").get<std::string>() +

@@ -183,6 +183,13 @@ foreach(_c IN ITEMS "different_channels;2;runs cover different channels;chute_2m
   set_tests_properties(cli.compare_${_n} PROPERTIES LABELS "cli")
 endforeach()
 
+add_test(NAME cli.budget_reversed_window
+         COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow-study>
+                 "-DARGS=budget ${_cli}/study_runs/chute_1m --from 1.0 --to 0.5"
+                 -DEXPECTED_CODE=2 "-DREGEX=--from 1 s is not before --to 0.5 s" -P ${_cli}/run_cli.cmake
+         WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+set_tests_properties(cli.budget_reversed_window PROPERTIES LABELS "cli")
+
 # coupled 2D/1D/2D against full 2D (Setup II, coarse)
 add_test(NAME coupled.setup2_against_full_2d
          COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> -DSTUDY=$<TARGET_FILE:granflow-study>
