@@ -55,6 +55,13 @@ granflow_cli_test(stray_text_in_list 2
 granflow_cli_test(text_inside_parameter 2
                   "parameter 'granflow->Time->End time': text \"0.5\" inside the element"
                   --check ${_cli}/bad_parameter_text.xml)
+# the nonlinear pressure with the default surface: refused where the channel has a wall end
+# (tests/cli/bad_ghost_nonlinear.xml and the Setup II scenes), accepted without one
+granflow_cli_test(nonlinear_open_chute_default_surface 0 "valid scene"
+                  --check ${_cli}/nonlinear_open_chute.xml)
+granflow_cli_test(nonlinear_default_surface_at_a_wall 2
+                  "Pressure coupling' = Nonlinear: the nonlinear pressure system does not converge yet with 'Surface pressure' = Ghost fluid at walls in a channel with a wall end.*Surface cells"
+                  --check ${_cli}/bad_nonlinear_default_wall.xml)
 granflow_cli_test(byte_order_mark 0 "valid scene" --check ${_cli}/bom_scene.xml)
 granflow_cli_test(scene_is_directory 2 "scene file '.*' is a directory; allowed: a ParameterList XML file"
                   --check ${_cli})
