@@ -78,12 +78,17 @@ DomainManager::DomainManager(const Decomposition& d,
   calm_since_.assign(static_cast<std::size_t>(nslots_), -1.0);
 }
 
+// beta = g cos(zeta) K_act: the DAM's wave speed is sqrt(beta h), eps = beta h / u^2
+double DomainManager::wave_beta() const {
+  const auto& ph = factory_->dam_physics();
+  return ph.g_cos * ph.K_act;
+}
+
 std::vector<Piece> DomainManager::target(const CoupledModel& model) {
   const auto& parts = model.parts();
   const double t = model.time(), L = factory_->length();
   const ChannelField f = channel_field(parts, 0, parts.size());
-  const auto& ph = factory_->dam_physics();
-  const double beta = ph.g_cos * ph.K_act;
+  const double beta = wave_beta();
   // Material is where the depth reaches one row of 2D markers (a thinner layer, e.g. the tip
   // of a front, cannot be represented by the 2D model, and its eps says nothing about the
   // flow), and at least ten dry depths of the DAM (as the a priori layout).
@@ -247,8 +252,7 @@ bool DomainManager::adapt(CoupledModel& model) {
   // pile up there unnoticed (u_mean L2 26 % against full 2D at 1.5 s; an independent run). At
   // the shipped scenes' margin of 5 cm the signal needs 10-15 ms, the interval is 5 ms.
   {
-    const auto& ph = factory_->dam_physics();
-    const double beta = ph.g_cos * ph.K_act;
+    const double beta = wave_beta();
     double s_max = 0.0;
     for (const SlotState& q : slots_)
       if (q.h > 0.0) s_max = std::max(s_max, std::abs(q.u_mean) + std::sqrt(beta * q.h));

@@ -281,6 +281,12 @@ bool DamSolver::wall_centred(int j, int n, bool on_b) const {
 // invariant that still carries q_in in, deeper and slower (v_b in (0, v_in]); for a closed gate
 // (q_in = 0) it is u_b = 0, c_b = c_0 - v_0 / 2: the reflection at a wall. beta: g cos(zeta)
 // K(0), the mean of the Rankine limits (the face's K is not known before the step).
+// An inflow series' mean discharge over the step [t, t + dt] (into the channel: + at the left
+// end, - at the right), the exact volume of the series over the step divided by dt.
+double DamSolver::series_discharge(const DamBoundary& b, int side, double dt) const {
+  return (side == 0 ? 1.0 : -1.0) * b.volume(t_, t_ + dt) / dt;
+}
+
 std::array<double, 2> DamSolver::gate_state(const DamBoundary& b, int side, double t, double x,
                                             double h_end, double hu_end) const {
   const auto s = b.inflow(t, x);
@@ -631,9 +637,8 @@ void DamSolver::step_once(double dt) {
     // h u over the step, so that a hydrograph's volume does not depend on where the steps fall
     // (a gate shut inside a step admitted the midpoint's flux: -0.07 % with outputs every
     // 0.013 s against 0.05 s). The momentum flux stays that of the state.
-    const double mass = b.volume ? (side == 0 ? 1.0 : -1.0) * b.volume(t_, t_ + dt) / dt
-                                 : s[0] * s[1];
-    return {mass, s[0] * s[1] * s[1] + 0.5 * bc * s[0] * s[0]};
+    return {b.volume ? series_discharge(b, side, dt) : s[0] * s[1],
+            s[0] * s[1] * s[1] + 0.5 * bc * s[0] * s[0]};
   };
   std::array<double, 2> F_left{0.0, 0.0}, F_right{0.0, 0.0};
   const auto K_range = phys_.K_bounds();
@@ -810,7 +815,7 @@ void DamSolver::euler_stage(const std::vector<double>& h0, const std::vector<dou
       const auto s = gate_state(*end, f == 0 ? 0 : 1, t, f == 0 ? x0_ : x1_, h[e], hu[e]);
       // an inflow series: both stages take the step's exact mean discharge (their mean is
       // then the step's volume; the stages' trapezoid rule depended on where steps fell)
-      Hm[fs] = end->volume ? (f == 0 ? 1.0 : -1.0) * end->volume(t_, t_ + dt) / dt : s[0] * s[1];
+      Hm[fs] = end->volume ? series_discharge(*end, f == 0 ? 0 : 1, dt) : s[0] * s[1];
       Ha[fs] = s[0] * s[1] * s[1];
       P[fs] = 0.5 * s[0] * s[0];
       continue;

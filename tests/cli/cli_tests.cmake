@@ -1,14 +1,22 @@
 # Each bad-input scene must stop before the run with exit code 2 and a message that names the
 # parameter, the value and what is allowed. run_cli.cmake runs granflow and checks both.
 set(_cli ${CMAKE_CURRENT_SOURCE_DIR}/cli)
-function(granflow_cli_test name expected_code regex)
+# granflow_cli_test runs granflow, granflow_study_test granflow-study, with the arguments after
+# the regex
+function(granflow_app_test app name expected_code regex)
   string(REPLACE ";" " " _args "${ARGN}")  # one -DARGS value; run_cli.cmake splits it again
   add_test(NAME cli.${name}
-           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow> "-DARGS=${_args}"
+           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:${app}> "-DARGS=${_args}"
                    -DEXPECTED_CODE=${expected_code} -DREGEX=${regex}
                    -P ${_cli}/run_cli.cmake
            WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
   set_tests_properties(cli.${name} PROPERTIES LABELS "cli")
+endfunction()
+function(granflow_cli_test name expected_code regex)
+  granflow_app_test(granflow ${name} ${expected_code} "${regex}" ${ARGN})
+endfunction()
+function(granflow_study_test name expected_code regex)
+  granflow_app_test(granflow-study ${name} ${expected_code} "${regex}" ${ARGN})
 endfunction()
 
 # usage and reference
@@ -176,26 +184,13 @@ granflow_cli_test(coupled_interfaces_decrease 2 "Decomposition->Interfaces.*0.7,
 # granflow-study compare: runs of different channels are refused (a 1 m chute against the 2 m
 # lab chute gave a table and exit 0 before); the same channel at another resolution is compared
 # (profiles.csv of three hand-made runs in tests/cli/study_runs: 1 m in 20 and 40 cells, 2 m)
-foreach(_c IN ITEMS "different_channels;2;runs cover different channels;chute_2m"
-                    "same_channel_finer;0;u L2 rel;chute_1m_fine")
-  list(GET _c 0 _n)
-  list(GET _c 1 _code)
-  list(GET _c 2 _re)
-  list(GET _c 3 _other)
-  add_test(NAME cli.compare_${_n}
-           COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow-study>
-                   "-DARGS=compare ${_cli}/study_runs/chute_1m ${_cli}/study_runs/${_other} --times 0.5 --out compare_${_n}"
-                   -DEXPECTED_CODE=${_code} -DREGEX=${_re} -P ${_cli}/run_cli.cmake
-           WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
-  set_tests_properties(cli.compare_${_n} PROPERTIES LABELS "cli")
-endforeach()
-
-add_test(NAME cli.budget_reversed_window
-         COMMAND ${CMAKE_COMMAND} -DEXE=$<TARGET_FILE:granflow-study>
-                 "-DARGS=budget ${_cli}/study_runs/chute_1m --from 1.0 --to 0.5"
-                 -DEXPECTED_CODE=2 "-DREGEX=--from 1 s is not before --to 0.5 s" -P ${_cli}/run_cli.cmake
-         WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
-set_tests_properties(cli.budget_reversed_window PROPERTIES LABELS "cli")
+set(_runs ${_cli}/study_runs)
+granflow_study_test(compare_different_channels 2 "runs cover different channels"
+                    compare ${_runs}/chute_1m ${_runs}/chute_2m --times 0.5 --out compare_different)
+granflow_study_test(compare_same_channel_finer 0 "u L2 rel"
+                    compare ${_runs}/chute_1m ${_runs}/chute_1m_fine --times 0.5 --out compare_finer)
+granflow_study_test(budget_reversed_window 2 "--from 1 s is not before --to 0.5 s"
+                    budget ${_runs}/chute_1m --from 1.0 --to 0.5)
 
 # coupled 2D/1D/2D against full 2D (Setup II, coarse)
 add_test(NAME coupled.setup2_against_full_2d

@@ -77,6 +77,7 @@ class DomainManager {
   void report(nlohmann::json& s) const;
 
  private:
+  double wave_beta() const;
   struct Move {
     double t = 0.0;
     std::string before, after;  // layouts, "2D 0 0.2 | 1D 0.2 0.7 | ..."

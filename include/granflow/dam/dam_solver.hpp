@@ -207,6 +207,7 @@ class DamSolver final : public core::Stepper {
   /// given the state of the end cell inside the channel: the user's (h_in, u_in) while it is
   /// compatible with the characteristic that leaves the channel there, otherwise the state that
   /// keeps the prescribed discharge (see the definition).
+  double series_discharge(const DamBoundary& b, int side, double dt) const;
   std::array<double, 2> gate_state(const DamBoundary& b, int side, double t, double x,
                                    double h_end, double hu_end) const;
   bool wall_centred(int j, int n, bool on_b) const;
