@@ -394,6 +394,21 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
   return plan;
 }
 
+void create_run_directories(const std::string& dir) {
+  // Runs started side by side (a study, ctest -j) may share a parent that one of them has just
+  // created and another's probe removes again (probe_directory's undo): create_directories then
+  // finds the parent gone between its check and its mkdir (ENOENT). Try again a few times; any
+  // other error, or a parent that keeps vanishing, is reported.
+  for (int attempt = 0;; ++attempt) {
+    try {
+      fs::create_directories(dir);
+      return;
+    } catch (const fs::filesystem_error& e) {
+      if (e.code() != std::errc::no_such_file_or_directory || attempt == 7) throw;
+    }
+  }
+}
+
 void probe_directory(const std::string& dir) {
   const std::string param =
       "parameter 'granflow->Output->Directory' = " + params::shown(dir) + ": ";
@@ -410,7 +425,7 @@ void probe_directory(const std::string& dir) {
     for (const auto& q : missing) fs::remove(q, e);  // only what this probe created (empty)
   };
   try {
-    fs::create_directories(dir);
+    create_run_directories(dir);
   } catch (const fs::filesystem_error& e) {
     undo();
     throw params::InputError(param + "the run cannot create it (" + e.code().message() +

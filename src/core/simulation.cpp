@@ -609,7 +609,7 @@ int Simulation::run() {
       // Refusals first (a file in the way, another scene), then under the lock for real.
       plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
                      rc_.restart_from, params_);
-      std::filesystem::create_directories(rc_.directory);
+      create_run_directories(rc_.directory);
       io_->lock = std::make_unique<DirectoryLock>(rc_.directory);
       plan = plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
                             rc_.restart_from, params_);

@@ -92,6 +92,11 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
                              bool restart, const std::string& keep,
                              const Teuchos::ParameterList& validated);
 
+/// std::filesystem::create_directories that tries again when a parent directory vanishes under
+/// it (ENOENT): runs started side by side in one working directory create and probe-remove
+/// the same parent ("output"). Other errors are thrown as by create_directories.
+void create_run_directories(const std::string& dir);
+
 /// What `granflow --check` asks of the run directory beyond plan_directory: that the run could
 /// create it and write into it. The missing part of the path is created and a probe file
 /// written, then both are removed again (an existing directory is left as it was). Throws an
