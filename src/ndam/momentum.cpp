@@ -129,8 +129,27 @@ bool NdamSolver::surface_upwind(int i1, int k1, int i2, int k2) const {
                   [](CellFlag f) { return f == CellFlag::Empty; });
 }
 
+// The divergence of a filling cell of the ghost-fluid wall zone (a thin Surface cell that is
+// no pressure unknown and keeps no continuity, free_surface.cpp), 0 for every other cell.
+// Such a cell fills up: its markers pile in as the layer meets the wall, so div u > 0 there is
+// the growth of its material, not an error of the projection.
+double NdamSolver::filling_divergence(int i, int k) const {
+  const int gi = mac_.slab.i0 + i;
+  if (!mac_.ghost_surface || !mac_.in_ghost_zone(gi) || mac_.gflag(gi, k) != CellFlag::Surface ||
+      mac_.p_unknown(gi, k))
+    return 0.0;
+  return (u_(i, k) - u_(i - 1, k)) / cfg_.grid.dx() + (w_(i, k) - w_(i, k - 1)) / cfg_.grid.dz();
+}
+
 // Convective terms of NaSt2D (Griebel et al.): d(u^2)/dx + d(uw)/dz at u faces and
 // d(uw)/dx + d(w^2)/dz at w faces, central part plus gamma times the donor-cell correction.
+// This conservative form equals the advective one, u.grad u, only where div u = 0. At a face of
+// a filling cell of the wall zone (filling_divergence) it is corrected by - u div u, the dual
+// cell's divergence the mean of its two cells': the velocity of a layer that thickens as it
+// stops obeys u_t + u.grad u = ..., and the conservative form accelerated the face feeding the
+// cell by u (u_in - u_out) / dx (a 2 mm layer at 3.8 m/s meeting the wall at 60 deg reached
+// 5.4-7.1 m/s against the energy bound 5.3 m/s; docs/validation.md, "A layer thinner than a
+// cell at the wall").
 double NdamSolver::conv_u(int i, int k) const {
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
   const double g = surface_upwind(i, k, i + 1, k) ? 1.0 : cfg_.gamma;
@@ -147,7 +166,8 @@ double NdamSolver::conv_u(int i, int k) const {
                      g / dz *
                          (std::abs(wt) * 0.5 * (u(i, k) - u(i, k + 1)) -
                           std::abs(wb) * 0.5 * (u(i, k - 1) - u(i, k)));
-  return du2 + duw;
+  const double div = 0.5 * (filling_divergence(i, k) + filling_divergence(i + 1, k));
+  return du2 + duw - u(i, k) * div;
 }
 
 double NdamSolver::conv_w(int i, int k) const {
@@ -166,7 +186,8 @@ double NdamSolver::conv_w(int i, int k) const {
                      g / dz *
                          (std::abs(wt) * 0.5 * (w(i, k) - w(i, k + 1)) -
                           std::abs(wb) * 0.5 * (w(i, k - 1) - w(i, k)));
-  return duw + dw2;
+  const double div = 0.5 * (filling_divergence(i, k) + filling_divergence(i, k + 1));
+  return duw + dw2 - w(i, k) * div;
 }
 
 // The explicit force of eq. (8) on the unknown faces, F = -C(u^n) + g [- G p^n] + V(u^n), with

@@ -297,6 +297,7 @@ class NdamSolver final : public core::Stepper {
         if (is(mac_.gflag(gi, k))) return true;
     return false;
   }
+  double filling_divergence(int i, int k) const;
   double conv_u(int i, int k) const;
   double conv_w(int i, int k) const;
   void explicit_force(bool with_pressure, Field& fu, Field& fw) const;
