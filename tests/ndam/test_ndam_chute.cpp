@@ -405,6 +405,18 @@ TEST(NdamChute, GateInflowTransferAndInterfaceApi) {
   }
 }
 
+// Steps s to t_end at its stable step capped at cap (every step checked) and adds what its left
+// end injected to `in`.
+static void run_gate_capped(ndam::NdamSolver& s, double t_end, double cap, double& in) {
+  while (s.time() < t_end - 1e-12) {
+    const double dt = std::min({s.stable_dt(), cap, t_end - s.time()});
+    s.step(dt);
+    ASSERT_TRUE(s.check().ok) << "t = " << s.time();
+    s.accept();
+    in += s.last_transfer().in;
+  }
+}
+
 // A hydrograph through the 2D gate: an inflow series that opens to 4 cm, shuts inside 0.1 ms
 // at 0.05 s, then a triangular pulse (the depth rising to 3 cm and falling to 0 over 40 ms).
 // What enters must be its volume, int h u dt, whatever the steps. Before, the markers took the
@@ -427,13 +439,7 @@ TEST(NdamChute, GateSeriesAdmitsItsVolumeWhateverTheSteps) {
   for (double cap : {2e-3, 1.3e-3}) {
     auto s = make_fs(c);
     double in = 0.0;
-    while (s->time() < t_end - 1e-12) {
-      const double dt = std::min({s->stable_dt(), cap, t_end - s->time()});
-      s->step(dt);
-      ASSERT_TRUE(s->check().ok);
-      s->accept();
-      in += s->last_transfer().in;
-    }
+    ASSERT_NO_FATAL_FAILURE(run_gate_capped(*s, t_end, cap, in));
     const double a = s->markers()->marker_area();
     std::printf("[measured] gate series, cap %.1e s: injected %.6e m^2, volume %.6e m^2, "
                 "difference %.3f markers\n", cap, in, exact, (in - exact) / a);
@@ -454,13 +460,7 @@ TEST(NdamChute, OpenGateReportsWhatIsNotYetMarkers) {
   for (double cap : {2e-3, 1.3e-3}) {
     auto s = make_fs(c);
     double in = 0.0;
-    while (s->time() < t_end - 1e-12) {
-      const double dt = std::min({s->stable_dt(), cap, t_end - s->time()});
-      s->step(dt);
-      ASSERT_TRUE(s->check().ok);
-      s->accept();
-      in += s->last_transfer().in;
-    }
+    ASSERT_NO_FATAL_FAILURE(run_gate_capped(*s, t_end, cap, in));
     const double a = s->markers()->marker_area(), exact = c.h_in * c.u_in * t_end;
     const double pending = s->inflow_pending();
     // the gate injects by marker rows (strips of the marker spacing), each holding a fraction
