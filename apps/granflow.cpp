@@ -124,6 +124,7 @@ int main(int argc, char** argv) {
     auto rc = core::RunControl::from_parameters(s.params->sublist("Time"),
                                                 s.params->sublist("Output"), s.dir);
     rc.overwrite = overwrite;
+    rc.energy_bound = scene::energy_speed_bound(s);
     // 4. Memory: estimate before anything is allocated (the ranks on this node share it).
     MPI_Comm node;
     MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);

@@ -175,6 +175,11 @@ double InflowSeries::discharge(double t0, double t1) const {
   return sum;
 }
 double InflowSeries::max_depth() const { return *std::max_element(h_.begin(), h_.end()); }
+double InflowSeries::max_speed() const {
+  double m = 0.0;
+  for (double u : u_) m = std::max(m, std::abs(u));
+  return m;
+}
 
 namespace {
 const std::vector<std::string> kLeftTypes{"Inflow", "Outflow", "Wall", "Periodic"};

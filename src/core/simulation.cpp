@@ -40,6 +40,14 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidTimeParameters() 
                1.0);
     add_int(*pl, "Max steps", static_cast<int>(d.max_steps),
             "stop (exit code 5) after this many steps", 1, 2000000000);
+    add_double(*pl, "Speed limit", d.speed_limit,
+               "[m/s] a material speed above this stops the run as diverged (exit code 3, with "
+               "a diagnosis; the last good output and checkpoint are kept). 0: five times the "
+               "scene's energy bound u_0 + sqrt(2 g (L |sin zeta| + H cos zeta)) (u_0 the "
+               "fastest of the gate or its series, the initial velocity and the lids; L the "
+               "channel length; H the 2D box height) in a 2D or coupled free-surface channel "
+               "that is not periodic, no limit otherwise (summary.json speed_limit says which)",
+               0.0, 1e6);
     return pl;
   }();
   return valid;
@@ -87,6 +95,7 @@ RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
   r.max_dt = time.get<double>("Max time step");
   r.min_dt = time.get<double>("Min time step");
   r.max_steps = time.get<int>("Max steps");
+  r.speed_limit = time.get<double>("Speed limit");
   r.directory = out.get<std::string>("Directory");
   r.output_interval = out.get<double>("Interval");
   r.fields = out.get<bool>("Fields");
@@ -101,6 +110,20 @@ RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
     params::fail(time, "Min time step", params::str(r.min_dt),
                  "must be smaller than 'Max time step' = " + params::str(r.max_dt));
   return r;
+}
+
+double RunControl::effective_speed_limit() const {
+  if (speed_limit > 0.0) return speed_limit;
+  return energy_bound > 0.0 ? kSpeedLimitFactor * energy_bound : 0.0;
+}
+
+std::string RunControl::speed_limit_source() const {
+  if (speed_limit > 0.0) return "Time->Speed limit";
+  if (energy_bound > 0.0)
+    return params::str(kSpeedLimitFactor) +
+           " x the energy bound u_0 + sqrt(2 g (L |sin zeta| + H cos zeta)) = " +
+           params::str(energy_bound) + " m/s";
+  return "none (Time->Speed limit = 0 and no energy bound for this scene)";
 }
 
 struct Simulation::Io {
@@ -391,12 +414,13 @@ void Simulation::write_output() {
 
 // The fastest velocity of the current state against the run's largest so far (every accepted
 // state, from the first one of this run: a restart counts from its checkpoint).
-void Simulation::track_speed() {
+Speed Simulation::track_speed() {
   const Speed s = model_->max_speed();
   if (s.value > max_speed_.value || max_speed_.quantity.empty()) {
     max_speed_ = s;
     max_speed_t_ = model_->time();
   }
+  return s;
 }
 
 // summary.json's "wall_load": the extremes of the wall.csv series (the whole run, also across
@@ -454,6 +478,10 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   if (restarted_)
     s["restart"] = {{"from", rc_.restart_from}, {"checkpoint_time", restart_time_}};
   // the fastest material velocity of the accepted states (the stability suite's bound)
+  s["speed_limit"] = {{"value", rc_.effective_speed_limit()},
+                      {"energy_bound", rc_.energy_bound},
+                      {"source", rc_.speed_limit_source()},
+                      {"unit", "m/s"}};
   s["max_speed"] = {{"value", max_speed_.value}, {"t", max_speed_t_}, {"x", max_speed_.x},
                     {"z", max_speed_.z}, {"quantity", max_speed_.quantity},
                     {"unit", "m/s"}};
@@ -772,7 +800,24 @@ int Simulation::advance(const io::Checkpoint& ck) {
     }
     model_->accept();
     last_dt_ = dt;
-    track_speed();
+    const Speed sp = track_speed();
+    // A speed far above what the scene's energy allows: the discretisation has failed (the
+    // state is accepted but not written; the last output and checkpoint stay)
+    if (const double lim = rc_.effective_speed_limit(); lim > 0.0) {
+      if (sp.value > lim) {
+        std::ostringstream os;
+        os << "material speed above the limit (" << rc_.speed_limit_source() << ": " << lim
+           << " m/s): " << sp.quantity << " = " << sp.value << " m/s at x = " << sp.x
+           << " m, z = " << sp.z << " m, in the step from t = " << t << " s with dt = " << dt
+           << " s";
+        write_summary("diverged", os.str(), kDiverged);
+        if (io_rank())
+          std::cerr << "\ngranflow: run diverged: " << os.str()
+                    << "; the last good output and checkpoint are kept in " << rc_.directory
+                    << "\n";
+        return kDiverged;
+      }
+    }
     // between accepted steps: the model may change its layout (the domain manager)
     const auto t3 = Clock::now();
     try {

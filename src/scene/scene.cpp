@@ -398,6 +398,43 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
   throw params::InputError(s.file + ": model '" + s.model + "' is not available");
 }
 
+double energy_speed_bound(const Scene& s) {
+  const auto& p = *s.params;
+  if (s.model != "N-DAM" && s.model != "Coupled") return 0.0;
+  const auto& nd = p.sublist("N-DAM");
+  if (!nd.get<bool>("Free surface") && s.model == "N-DAM") return 0.0;
+  const auto& ch = p.sublist("Channel");
+  const auto& walls = nd.sublist("Boundaries");
+  auto periodic = [](const std::string& t) { return t == "Periodic"; };
+  if (periodic(ch.sublist("Left boundary").get<std::string>("Type")) ||
+      periodic(ch.sublist("Right boundary").get<std::string>("Type")) ||
+      periodic(walls.get<std::string>("Left")))
+    return 0.0;
+  const auto channel = core::Channel::from_parameters(
+      ch, s.user->isSublist("Channel") ? s.user->sublist("Channel") : ParameterList("Channel"),
+      s.dir);
+  double u0 = channel.left.type == core::BoundaryType::Inflow ? channel.left.inflow.max_speed()
+                                                              : 0.0;
+  for (const char* lid : {"Left lid velocity", "Right lid velocity", "Bottom lid velocity",
+                          "Top lid velocity"})
+    u0 = std::max(u0, std::abs(walls.get<double>(lid)));
+  // the height material can fall from: the 2D box, or a deeper initial DAM layer (a dam break's
+  // front runs at 2 sqrt(g h0), sqrt(2) times the free fall from h0)
+  double height = nd.get<double>("Height");
+  if (p.isSublist("Initial condition")) {
+    const auto& ic = p.sublist("Initial condition");
+    if (ic.get<std::string>("Type") != "Dry") {
+      u0 = std::max(u0, std::abs(ic.get<double>("Velocity")));
+      for (const char* d : {"Depth", "Left depth", "Right depth"})
+        height = std::max(height, ic.get<double>(d) * (1.0 + ic.get<double>("Amplitude")));
+    }
+  }
+  const double g = p.sublist("Material").get<double>("Gravity");
+  const double z = channel.slope_deg * M_PI / 180.0;
+  const double drop = channel.length * std::abs(std::sin(z)) + height * std::cos(z);
+  return u0 + std::sqrt(2.0 * g * std::max(drop, 0.0));
+}
+
 std::string parameter_reference() {
   std::ostringstream os;
   os << "# granflow scene parameters\n\n"

@@ -120,6 +120,9 @@ granflow_cli_test(good_run 0 "completed at t = 0.2 s" ${_cli}/good_run.xml)
 # a run whose stable step collapses stops with a diagnosis and exit code 3
 granflow_cli_test(diverged_min_dt 3 "stable time step .* fell below 'Min time step'.*last good output and checkpoint are kept"
                   ${_cli}/diverge_min_dt.xml)
+# a material speed above 'Time->Speed limit' stops the run with exit code 3 and a diagnosis
+granflow_cli_test(diverged_speed_limit 3 "material speed above the limit \\(Time->Speed limit: 1 m/s\\): \\|u\\| = .* m/s at x = .*last good output and checkpoint are kept"
+                  ${_cli}/diverge_speed.xml)
 # a 2D run whose nonlinear pressure solve fails stops with the Newton diagnosis and exit code 3
 granflow_cli_test(diverged_newton 3 "nonlinear pressure system did not converge.*Newton.*last good output and checkpoint are kept"
                   ${_cli}/diverge_newton.xml)

@@ -42,6 +42,19 @@ got = s["mass_balance"]["net_in_through_left_end"] + s["solver_statistics"]["nda
 print(f"gate: injected + pending {got:.9e}, h_in u_in t {exact:.9e}")
 sys.exit(0 if abs(got - exact) <= 1e-12 * exact else 1)
 EOF
+# The automatic speed limit ('Time->Speed limit' = 0): five times the scene's energy bound
+# u_in + sqrt(2 g (L sin zeta + H cos zeta)), in summary.json (round-off: 1e-12 relative).
+python3 - straight <<'EOF' || fail "summary.json speed_limit is not five times the energy bound"
+import json, math, sys
+s = json.load(open(sys.argv[1] + "/summary.json"))
+P = s["parameters"]; ch = P["Channel"]; z = math.radians(ch["Slope angle"])
+b = ch["Left boundary"]["Inflow velocity"] + math.sqrt(2 * P["Material"]["Gravity"] * (
+    ch["Length"] * math.sin(z) + P["N-DAM"]["Height"] * math.cos(z)))
+sl = s["speed_limit"]
+print(f"speed limit {sl['value']} m/s, energy bound {sl['energy_bound']} m/s (expected {b})")
+ok = abs(sl["energy_bound"] - b) <= 1e-12 * b and abs(sl["value"] - 5 * b) <= 1e-12 * b
+sys.exit(0 if ok and "energy bound" in sl["source"] and s["max_speed"]["value"] < b else 1)
+EOF
 # The summary is the series': samples, the peak of each column, the impact peak inside the
 # window after the first contact, the final row.
 [ "$(json straight/summary.json "s['wall_load']['samples']")" = "$rows" ] || fail "samples != rows"

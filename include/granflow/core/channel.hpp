@@ -27,6 +27,8 @@ class InflowSeries {
   bool is_constant() const { return t_.size() <= 1; }
   /// The deepest opening of the series (its largest h row).
   double max_depth() const;
+  /// The fastest inflow of the series (its largest |u| row; linear between rows).
+  double max_speed() const;
 
  private:
   double interp(const std::vector<double>& v, double t) const;

@@ -37,6 +37,15 @@ Scene load(const std::string& file);
 /// MPI_COMM_SELF to compare with a distributed run).
 std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm = MPI_COMM_WORLD);
 
+/// [m/s] The fastest speed the scene's energy allows a particle without pressure work,
+/// u_0 + sqrt(2 g (L |sin zeta| + H cos zeta)): u_0 the fastest of the gate (or its series),
+/// the initial velocity and the 2D box's lids, L the channel length, H the 2D box height.
+/// 0 (no bound) for the DAM alone (its fronts are checked by the DAM itself), a 2D box without
+/// a free surface, and a periodic channel (a layer there accelerates without end).
+/// core::RunControl::energy_bound; 'Time->Speed limit' = 0 stops a run at kSpeedLimitFactor
+/// times it.
+double energy_speed_bound(const Scene& s);
+
 /// Markdown reference of every model's parameters (docs/parameters.md).
 std::string parameter_reference();
 
