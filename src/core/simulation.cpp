@@ -414,6 +414,17 @@ void Simulation::write_output() {
 
 // The fastest velocity of the current state against the run's largest so far (every accepted
 // state, from the first one of this run: a restart counts from its checkpoint).
+// A run that cannot go on (exit code 3): summary.json with the status and reason, the reason
+// on stderr; the state of this step is not written, so the last output and checkpoint stay.
+int Simulation::stop_diverged(const std::string& status, const std::string& headline,
+                              const std::string& reason) {
+  write_summary(status, reason, kDiverged);
+  if (io_rank())
+    std::cerr << "\ngranflow: " << headline << reason
+              << "; the last good output and checkpoint are kept in " << rc_.directory << "\n";
+  return kDiverged;
+}
+
 Speed Simulation::track_speed() {
   const Speed s = model_->max_speed();
   if (s.value > max_speed_.value || max_speed_.quantity.empty()) {
@@ -762,12 +773,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
       os << "stable time step " << stable << " s fell below 'Min time step' = " << rc_.min_dt
          << " s at t = " << t << " s";
       if (const std::string lim = model_->dt_limit(); !lim.empty()) os << ", set by " << lim;
-      write_summary("diverged", os.str(), kDiverged);
-      if (io_rank())
-        std::cerr << "\ngranflow: run stopped: " << os.str()
-                  << "; the last good output and checkpoint are kept in " << rc_.directory
-                  << "\n";
-      return kDiverged;
+      return stop_diverged("diverged", "run stopped: ", os.str());
     }
     // Land exactly on the next output or end time; split the last two steps before it evenly
     // rather than leaving a sliver step. An end time that is an output time (to round-off: 0.6
@@ -790,13 +796,8 @@ int Simulation::advance(const io::Checkpoint& ck) {
          << " m, in the step from t = " << t << " s with dt = " << dt << " s";
       // a limit of the scene (hl.limit: the top of the 2D box) stops the run like a divergence,
       // but says what it is
-      write_summary(hl.limit ? "stopped" : "diverged", os.str(), kDiverged);
-      if (io_rank())
-        std::cerr << (hl.limit ? "\ngranflow: run stopped at a limit of the scene: "
-                               : "\ngranflow: run diverged: ")
-                  << os.str() << "; the last good output and checkpoint are kept in "
-                  << rc_.directory << "\n";
-      return kDiverged;
+      return hl.limit ? stop_diverged("stopped", "run stopped at a limit of the scene: ", os.str())
+                      : stop_diverged("diverged", "run diverged: ", os.str());
     }
     model_->accept();
     last_dt_ = dt;
@@ -810,12 +811,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
            << " m/s): " << sp.quantity << " = " << sp.value << " m/s at x = " << sp.x
            << " m, z = " << sp.z << " m, in the step from t = " << t << " s with dt = " << dt
            << " s";
-        write_summary("diverged", os.str(), kDiverged);
-        if (io_rank())
-          std::cerr << "\ngranflow: run diverged: " << os.str()
-                    << "; the last good output and checkpoint are kept in " << rc_.directory
-                    << "\n";
-        return kDiverged;
+        return stop_diverged("diverged", "run diverged: ", os.str());
       }
     }
     // between accepted steps: the model may change its layout (the domain manager)

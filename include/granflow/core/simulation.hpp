@@ -126,6 +126,8 @@ class Simulation {
   Speed max_speed_;          ///< fastest material velocity over the accepted states so far
   double max_speed_t_ = 0.0;  ///< its time
   Speed track_speed();
+  int stop_diverged(const std::string& status, const std::string& headline,
+                    const std::string& reason);
   long last_progress_step_ = -1;
   double origin_ = 0.0;   ///< time of the scene's start; outputs at origin + k Interval
   long next_index_ = 1;   ///< k of the next output time
