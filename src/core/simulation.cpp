@@ -42,11 +42,13 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidTimeParameters() 
             "stop (exit code 5) after this many steps", 1, 2000000000);
     add_double(*pl, "Speed limit", d.speed_limit,
                "[m/s] a material speed above this stops the run as diverged (exit code 3, with "
-               "a diagnosis; the last good output and checkpoint are kept). 0: five times the "
-               "scene's energy bound u_0 + sqrt(2 g (L |sin zeta| + H cos zeta)) (u_0 the "
-               "fastest of the gate or its series, the initial velocity and the lids; L the "
-               "channel length; H the 2D box height) in a 2D or coupled free-surface channel "
-               "that is not periodic, no limit otherwise (summary.json speed_limit says which)",
+               "a diagnosis; the last good output and checkpoint are kept). 0: " +
+                   params::str(kSpeedLimitFactor) +
+                   " times the scene's energy bound u_0 + sqrt(2 g (L |sin zeta| + H cos "
+                   "zeta)) (u_0 the fastest of the gate or its series, the initial velocity "
+                   "and the lids; L the channel length; H the 2D box height) in a 2D or "
+                   "coupled free-surface channel that is not periodic, no limit otherwise "
+                   "(summary.json speed_limit says which)",
                0.0, 1e6);
     return pl;
   }();
@@ -412,8 +414,6 @@ void Simulation::write_output() {
   show_progress(false, true);
 }
 
-// The fastest velocity of the current state against the run's largest so far (every accepted
-// state, from the first one of this run: a restart counts from its checkpoint).
 // A run that cannot go on (exit code 3): summary.json with the status and reason, the reason
 // on stderr; the state of this step is not written, so the last output and checkpoint stay.
 int Simulation::stop_diverged(const std::string& status, const std::string& headline,
@@ -425,6 +425,9 @@ int Simulation::stop_diverged(const std::string& status, const std::string& head
   return kDiverged;
 }
 
+// The fastest velocity of the current state against the run's largest so far (every accepted
+// state, from the first one of this run: a restart counts from its checkpoint); returns the
+// current state's.
 Speed Simulation::track_speed() {
   const Speed s = model_->max_speed();
   if (s.value > max_speed_.value || max_speed_.quantity.empty()) {
@@ -804,15 +807,13 @@ int Simulation::advance(const io::Checkpoint& ck) {
     const Speed sp = track_speed();
     // A speed far above what the scene's energy allows: the discretisation has failed (the
     // state is accepted but not written; the last output and checkpoint stay)
-    if (const double lim = rc_.effective_speed_limit(); lim > 0.0) {
-      if (sp.value > lim) {
-        std::ostringstream os;
-        os << "material speed above the limit (" << rc_.speed_limit_source() << ": " << lim
-           << " m/s): " << sp.quantity << " = " << sp.value << " m/s at x = " << sp.x
-           << " m, z = " << sp.z << " m, in the step from t = " << t << " s with dt = " << dt
-           << " s";
-        return stop_diverged("diverged", "run diverged: ", os.str());
-      }
+    if (const double lim = rc_.effective_speed_limit(); lim > 0.0 && sp.value > lim) {
+      std::ostringstream os;
+      os << "material speed above the limit (" << rc_.speed_limit_source() << ": " << lim
+         << " m/s): " << sp.quantity << " = " << sp.value << " m/s at x = " << sp.x
+         << " m, z = " << sp.z << " m, in the step from t = " << t << " s with dt = " << dt
+         << " s";
+      return stop_diverged("diverged", "run diverged: ", os.str());
     }
     // between accepted steps: the model may change its layout (the domain manager)
     const auto t3 = Clock::now();

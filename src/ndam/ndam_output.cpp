@@ -543,14 +543,15 @@ void NdamSolver::report(nlohmann::json& s) const {
         {"note", "markers moved into enclosed voids of the sampling, each by about a cell (at most about two) "
                  "(docs/numerics.md, 'Voids of the marker sampling')"}};
     // What the gate or the interface admitted that is not yet markers: the rows' fractions of a
-    // marker (at most one marker per open row) and an interface's owed and held mass. The
+    // marker (under one marker per open marker row) and an interface's owed and held mass. The
     // mass balance counts markers (net_in = the injected markers), so this is the part of
     // int h u dt at the left end that the balance does not show yet.
     if (cfg_.inflow || inflow_mass_) {
       s["ndam"]["inflow_pending_area"] = inflow_pending();
       s["ndam"]["inflow_pending_note"] =
-          "m^2 admitted at the left end and not yet a marker (the open rows' fractions of a "
-          "marker, an interface's owed and held mass); mass_balance counts the injected markers";
+          "m^2 admitted at the left end and not yet a marker (the open marker rows' fractions "
+          "of a marker, an interface's owed and held mass); mass_balance counts the injected "
+          "markers";
     }
   }
   // The nonlinear pressure system (Pressure coupling = Nonlinear): Newton and Krylov (GMRES)
