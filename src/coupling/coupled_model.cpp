@@ -117,7 +117,8 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
 }
 
 Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
-                                             const core::Channel& channel) {
+                                             const core::Channel& channel,
+                                             const Teuchos::ParameterList* user) {
   Decomposition d;
   d.layout = pl.get<std::string>("Layout");
   const auto models = pl.get<Teuchos::Array<std::string>>("Models");
@@ -136,6 +137,28 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   d.shock_indicator = pl.get<bool>("Shock indicator");
   d.subcycling = pl.get<bool>("Sub-cycling");
   d.interface_mass_relaxation = pl.get<double>("Interface mass relaxation");
+  // A setting of another layout is refused by name, as the 2D model's unused options are: an
+  // independent run found a Static layout taking 'Lower threshold' 0.5 (above the upper one),
+  // 'Hold time' 0 and 'Rest speed' 100 without a word, and an A priori one its 'Models'.
+  auto unused = [&](const char* name, const std::string& why) {
+    if (user && user->isParameter(name))
+      params::fail(pl, name, Teuchos::toString(user->getEntry(name).getAny(false)), why);
+  };
+  const bool dynamic = d.layout == "Dynamic";
+  if (!dynamic)
+    for (const char* name : {"Initial layout", "Lower threshold", "Hold time", "Check interval",
+                             "Rest speed", "Shock indicator"})
+      unused(name, "a setting of the domain manager, and 'Layout' = " + d.layout +
+                       "; allowed: leave it out, or 'Layout' = Dynamic");
+  if (d.layout == "Static")
+    for (const char* name : {"Shallowness threshold", "Margin", "Minimum length"})
+      unused(name, "a setting of the A priori and Dynamic layouts, and 'Layout' = Static; "
+                   "allowed: leave it out, or 'Layout' = A priori or Dynamic");
+  if (d.layout == "A priori" || (dynamic && d.initial_layout == "A priori"))
+    for (const char* name : {"Models", "Interfaces"})
+      unused(name, "the a priori layout replaces them with the layout of a DAM run; allowed: "
+                   "leave it out, or 'Layout' = Static (or Dynamic with 'Initial layout' = "
+                   "Static)");
   if (d.layout == "Dynamic" && !(d.eps_lower < d.eps_threshold))
     params::fail(pl, "Lower threshold", params::str(d.eps_lower),
                  "must be below 'Shallowness threshold' = " + params::str(d.eps_threshold) +

@@ -339,6 +339,11 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
       params::fail(b, side + " lid velocity", params::str(w.velocity),
                    "given for a side of type '" + b.get<std::string>(side) +
                        "'; allowed only with " + side + " = Moving lid");
+    // a lid is a wall that moves: without its speed it would be a No-slip wall by default
+    if (w.kind == WallKind::MovingLid && ub && !ub->isParameter(side + " lid velocity"))
+      params::fail(b, side, "Moving lid",
+                   "needs '" + side + " lid velocity' (its tangential speed; a lid at rest is "
+                   "a No-slip wall); allowed: give '" + side + " lid velocity', or No-slip");
     c.walls[static_cast<std::size_t>(s)] = w;
   }
   const bool pl_ = c.walls[0].kind == WallKind::Periodic, pr = c.walls[1].kind == WallKind::Periodic;
@@ -419,6 +424,14 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                          " m, Cells z " + std::to_string(c.grid.nz) + ")");
     }
     if (channel.right.type == core::BoundaryType::Outflow) {
+      // The open end is the box's right side whatever Boundaries->Right says: a wall kind set
+      // there had no effect (a Moving lid's 1000 m/s still raised the speed limit's bound; an
+      // independent run), so only the outflow's own Free-slip is accepted
+      if (ub && ub->isParameter("Right") && c.walls[1].kind != WallKind::FreeSlip)
+        params::fail(b, "Right", b.get<std::string>("Right"),
+                     "the channel's right end is open (Channel->Right boundary: Type = Outflow), "
+                     "so the box's right side is the outflow, with zero-gradient w; allowed: "
+                     "Free-slip, or leave it out");
       c.outflow_right = true;
       c.walls[1].kind = WallKind::FreeSlip;  // zero-gradient w at the open end
     }
@@ -493,9 +506,14 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
       params::fail(pl, name, Teuchos::toString(user->getEntry(name).getAny(false)), why);
   };
   if (!c.free_surface)
-    for (const char* name : {"Surface pressure", "Surface cell mass"})
+    for (const char* name :
+         {"Surface pressure", "Surface cell mass", "Markers per cell", "Fill marker voids"})
       unused(name, "a setting of the free surface, and 'Free surface' = false; allowed: leave "
                    "it out, or 'Free surface' = true");
+  if (c.initial_depth == 0.0)
+    for (const char* name : {"Initial x0", "Initial x1"})
+      unused(name, "the extent of the initial layer, and 'Initial depth' = 0 (no layer); "
+                   "allowed: leave it out, or 'Initial depth' > 0");
   if (c.pressure_coupling == PressureCoupling::Lagged)
     for (const char* name :
          {"Pressure iteration", "Anderson depth", "Anderson fallback", "Pressure Newton failure"})

@@ -281,6 +281,15 @@ Scene load(const std::string& file) {
         s.dir);
     (void)m;
     (void)c;
+    // the tanh switch's width belongs to the Savage-Hutter K (an independent run: accepted with
+    // 'Earth pressure' = Active, results unchanged)
+    if (s.user->isSublist("DAM") && s.user->sublist("DAM").isParameter("Earth pressure smoothing") &&
+        user->sublist("DAM").get<std::string>("Earth pressure") != "Savage-Hutter")
+      params::fail(user->sublist("DAM"), "Earth pressure smoothing",
+                   params::str(user->sublist("DAM").get<double>("Earth pressure smoothing")),
+                   "the width of the switch between K_act and K_pas, and 'Earth pressure' = " +
+                       user->sublist("DAM").get<std::string>("Earth pressure") +
+                       " (K fixed); allowed: leave it out, or 'Earth pressure' = Savage-Hutter");
     const auto rc =
         core::RunControl::from_parameters(user->sublist("Time"), user->sublist("Output"), s.dir);
     check_output(rc, user->sublist("Output"));
@@ -303,7 +312,9 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
     if (s.model == "Coupled") {
       const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));
       check_dry_depth(p.sublist("DAM"), cfg, channel);
-      auto d = coupling::Decomposition::from_parameters(p.sublist("Decomposition"), channel);
+      auto d = coupling::Decomposition::from_parameters(
+          p.sublist("Decomposition"), channel,
+          s.user->isSublist("Decomposition") ? &s.user->sublist("Decomposition") : nullptr);
       // The factory keeps this for the whole run (a restart of a dynamic layout rebuilds parts
       // with it), so it owns copies of what it reads, not references into this function.
       const auto init = [ic = p.sublist("Initial condition"),

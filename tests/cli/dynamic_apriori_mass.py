@@ -34,6 +34,8 @@ failed = []
 for cells, margin in ((50, 0.05), (50, 0.03), (100, 0.035)):
     tag = f"c{cells}_m{margin}"
     t = edit(base, "Initial layout", "string", "A priori")
+    # the a priori layout replaces the scene's Models and Interfaces (refused when given)
+    t = re.sub(r'\s*<Parameter name="(Models|Interfaces)"[^>]*/>', "", t)
     t = edit(t, "Margin", "double", margin)
     t = edit(t, "Minimum length", "double", 0.08)
     t = edit(t, "Cells", "int", 2 * cells)       # the DAM: two cells per 2D column

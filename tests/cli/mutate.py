@@ -9,7 +9,7 @@ nested <ParameterList> lines of the shipped scenes.
 
 As a test:
   mutate.py --exe granflow --scene inputs/setup2_dam.xml --out DIR
-            [--set PATH VALUE] [--type PATH TYPE] [--duplicate PATH VALUE]
+            [--set PATH VALUE] [--type PATH TYPE] [--duplicate PATH VALUE] [--add PATH TYPE VALUE]
             [--attr PATH ATTRIBUTE VALUE] [--nest N]
             --code 2 --regex 'parameter .granflow->Channel->Slope angle. = "abc"'
 VALUE may hold Python escapes (\\xff is the byte 0xff); "{existing_file}" in it is replaced by
@@ -78,6 +78,24 @@ def duplicate(lines, path, value):
     lines.insert(i + 1, set_attr(lines[i], b"value", value))
 
 
+def add(lines, path, type_, value):
+    """A new <Parameter> line at the top of the list that path's parent names."""
+    parent, name = path.rsplit("->", 1)
+    stack = []
+    for i, line in enumerate(lines):
+        m = LIST_OPEN.search(line)
+        if m:
+            stack.append(m.group(1).decode("latin-1"))
+            if "->".join(stack[1:]) == parent:
+                indent = re.match(rb"\s*", line).group(0) + b"  "
+                lines.insert(i + 1, indent + b'<Parameter name="' + name.encode() + b'" type="' +
+                             type_.encode() + b'" value="' + value + b'"/>\n')
+                return
+        if LIST_CLOSE.search(line) and stack:
+            stack.pop()
+    raise SystemExit(f"mutate.py: no list '{parent}' in the scene")
+
+
 def nest(lines, depth):
     """depth nested lists inside the top list (after its first line)."""
     top = next(i for i, l in enumerate(lines) if LIST_OPEN.search(l))
@@ -117,6 +135,8 @@ def main():
                     metavar=("PATH", "VALUE"))
     ap.add_argument("--attr", nargs=3, action="append", default=[],
                     metavar=("PATH", "ATTRIBUTE", "VALUE"), help="add an attribute")
+    ap.add_argument("--add", nargs=3, action="append", default=[],
+                    metavar=("PATH", "TYPE", "VALUE"), help="add a parameter to an existing list")
     ap.add_argument("--nest", type=int, default=0)
     ap.add_argument("--code", type=int, required=True)
     ap.add_argument("--regex", required=True)
@@ -135,6 +155,8 @@ def main():
         set_value(lines, path, sub(v))
     for path, v in a.duplicate:
         duplicate(lines, path, sub(v))
+    for path, t, v in a.add:
+        add(lines, path, t, sub(v))
     for path, name, v in a.attr:
         i = find(lines, path)
         lines[i] = lines[i].replace(b"<Parameter ", b"<Parameter " + name.encode() + b'="' + sub(v) + b'" ', 1)

@@ -52,8 +52,10 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
   n.set("Donor-cell weight", 0.5);
   n.set("Free surface", true);
   n.set("Initial depth", c.depth);
-  n.set("Initial x0", c.init_x0);
-  n.set("Initial x1", c.init_x1);
+  if (c.depth > 0.0) {  // the layer's extent (refused without a layer, as an unused option)
+    n.set("Initial x0", c.init_x0);
+    n.set("Initial x1", c.init_x1);
+  }
   n.set("Friction regularisation", c.m_c);
   n.set("Pressure coupling", c.coupling);
   if (c.coupling == "Nonlinear") n.set("Pressure iteration", c.pressure_iteration);

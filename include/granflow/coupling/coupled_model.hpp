@@ -57,8 +57,11 @@ struct Decomposition {
   std::string interface_pressure = "Rheology";
 
   static Teuchos::RCP<const Teuchos::ParameterList> getValidParameters();
+  /// `user`: the scene's own Decomposition list (before the defaults), when there is one: a
+  /// setting the chosen layout does not use is refused by name.
   static Decomposition from_parameters(const Teuchos::ParameterList& pl,
-                                       const core::Channel& channel);
+                                       const core::Channel& channel,
+                                       const Teuchos::ParameterList* user = nullptr);
   /// [x0, x1] of subdomain i on a channel of length L.
   std::array<double, 2> extent(std::size_t i, double length) const;
   /// The layout that is built on a channel of length L: subdomains of zero length (equal
