@@ -109,10 +109,19 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
     }
     const double t = v[0], h = v[1], u = v[2];
     if (!std::isfinite(t) || !std::isfinite(h) || !std::isfinite(u) || h < 0.0 ||
-        (!s.t_.empty() && t <= s.t_.back()))
+        (!s.t_.empty() && t <= s.t_.back())) {
+      // say which value is wrong (an independent run: "h = -0.06" was not named)
+      const std::string what =
+          !std::isfinite(t) || !std::isfinite(h) || !std::isfinite(u)
+              ? "t = " + params::str(t) + ", h = " + params::str(h) + ", u = " + params::str(u) +
+                    " is not finite"
+          : h < 0.0 ? "depth h = " + params::str(h) + " is negative"
+                    : "t = " + params::str(t) + " does not follow the previous row's t = " +
+                          params::str(s.t_.back());
       throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
-                               std::to_string(lineno) +
-                               ": need finite values, h >= 0 and strictly increasing t");
+                               std::to_string(lineno) + ": " + what +
+                               "; allowed: finite values, h >= 0 and strictly increasing t");
+    }
     // Like the constant inflow ('Inflow velocity' must be > 0 with a depth > 0): the left end
     // takes material in, so u < 0 (material leaving through the gate) is refused on every row,
     // and a row with h > 0 needs u > 0. Between two accepted rows the interpolated u is then

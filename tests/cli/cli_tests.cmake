@@ -46,6 +46,9 @@ granflow_cli_test(unknown_model 2 "Model' = .Navier.: unknown model; allowed: DA
 granflow_cli_test(series_negative_velocity 2
                   "Inflow series file' = .*bad_series_negative_u.csv: line 3: velocity u = -0.2.*allowed: u >= 0"
                   ${_cli}/bad_series_negative_u.xml)
+granflow_cli_test(series_negative_depth 2
+                  "Inflow series file' = .*bad_series_negative_h.csv: line 3: depth h = -0.06 is negative; allowed: finite values, h >= 0"
+                  ${_cli}/bad_series_negative_h.xml)
 granflow_cli_test(series_row_out_of_range 2
                   "Inflow series file' = .*bad_series_range.csv: line 3: depth h = 2000 outside the range.*allowed: 0 <= h <= 1000 m"
                   ${_cli}/bad_series_range.xml)
@@ -235,6 +238,33 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(ndam_layer_reversed ndam_column_collapse.xml
                        "N-DAM->Initial x1' = -0.1: must be greater than 'Initial x0' = 0"
                        --set "N-DAM->Initial x1" "-0.1")
+  # settings that the scene's configuration does not use are refused by name (an independent
+  # run, 2026-12-05: each was accepted without effect; the open end's Moving lid at 1000 m/s
+  # still raised the speed limit's energy bound to 1005 m/s)
+  granflow_mutant_test(outflow_end_wall setup1_ndam.xml
+                       "N-DAM->Boundaries->Right' = No-slip: the channel's right end is open .*allowed: Free-slip, or leave it out"
+                       --set "N-DAM->Boundaries->Right" "No-slip")
+  granflow_mutant_test(moving_lid_without_speed setup2_ndam.xml
+                       "N-DAM->Boundaries->Top' = Moving lid: needs 'Top lid velocity'"
+                       --set "N-DAM->Boundaries->Top" "Moving lid")
+  granflow_mutant_test(markers_without_free_surface ndam_cavity_re100.xml
+                       "N-DAM->Markers per cell' = 8: a setting of the free surface, and 'Free surface' = false"
+                       --add "N-DAM->Markers per cell" int 8)
+  granflow_mutant_test(layer_extent_without_layer setup2_ndam.xml
+                       "N-DAM->Initial x0' = 0.5: the extent of the initial layer, and 'Initial depth' = 0"
+                       --add "N-DAM->Initial x0" double 0.5)
+  granflow_mutant_test(dam_smoothing_with_fixed_k setup2_dam.xml
+                       "DAM->Earth pressure smoothing' = 5: .*'Earth pressure' = Active \\(K fixed\\); allowed: leave it out, or 'Earth pressure' = Savage-Hutter"
+                       --set "DAM->Earth pressure" Active --add "DAM->Earth pressure smoothing" double 5)
+  granflow_mutant_test(static_layout_with_threshold setup2_coupled.xml
+                       "Decomposition->Lower threshold' = 0.5: a setting of the domain manager, and 'Layout' = Static"
+                       --add "Decomposition->Lower threshold" double 0.5)
+  granflow_mutant_test(apriori_layout_with_models lab_chute_apriori.xml
+                       "Decomposition->Models' = \\{1D, 1D\\}: the a priori layout replaces them"
+                       --add "Decomposition->Models" "Array(string)" "{1D, 1D}")
+  granflow_mutant_test(end_time_below_resolution setup2_dam.xml
+                       "Time->End time' = 1e-13: below the run.s time resolution of 1e-9 s"
+                       --set "Time->End time" 1e-13)
   set(_slope "Channel->Slope angle")
   set(_slope_re "parameter 'granflow->Channel->Slope angle' = ")
   set(_double_re "allowed: a decimal number in \\[0, 89\\]")
@@ -338,6 +368,12 @@ add_test(NAME cli.budget_short_channel
          COMMAND /usr/bin/python3 ${_cli}/budget_short.py ${CMAKE_BINARY_DIR}
                  ${CMAKE_CURRENT_BINARY_DIR}/budget_short ${_in})
 set_tests_properties(cli.budget_short_channel PROPERTIES LABELS "cli" TIMEOUT 300)
+# summary.json of a run stopped by the speed limit describes the accepted steps only, and lists
+# only files that exist (an independent run, 2026-12-05)
+add_test(NAME cli.stop_summary
+         COMMAND /usr/bin/python3 ${_cli}/stop_summary.py $<TARGET_FILE:granflow> ${_cli}
+                 ${PROJECT_SOURCE_DIR}/inputs ${CMAKE_CURRENT_BINARY_DIR}/stop_summary)
+set_tests_properties(cli.stop_summary PROPERTIES LABELS "cli" TIMEOUT 300)
 add_test(NAME cli.pareto_quick
          COMMAND /usr/bin/python3 ${_cli}/pareto_quick.py ${CMAKE_BINARY_DIR} ${CMAKE_CURRENT_BINARY_DIR}/pareto_quick)
 set_tests_properties(cli.pareto_quick PROPERTIES LABELS "cli" TIMEOUT 900)
