@@ -108,6 +108,12 @@ RunControl RunControl::from_parameters(const Teuchos::ParameterList& time,
   if (!r.restart_from.empty() && !std::filesystem::exists(r.restart_from))
     params::fail(out, "Restart from", r.restart_from,
                  "no such file; allowed: the checkpoint.h5 of an earlier run, or empty");
+  // the loop's time resolution is 1e-9 s (eps_t in run()): a shorter positive End time ran
+  // no step and reported "completed at t = 0" (an independent run)
+  if (r.end_time > 0.0 && r.end_time < 1e-9)
+    params::fail(time, "End time", params::str(r.end_time),
+                 "below the run's time resolution of 1e-9 s, so no step would be taken; "
+                 "allowed: 0 (the initial state only) or >= 1e-9");
   if (r.min_dt >= r.max_dt)
     params::fail(time, "Min time step", params::str(r.min_dt),
                  "must be smaller than 'Max time step' = " + params::str(r.max_dt));
@@ -428,8 +434,9 @@ int Simulation::stop_diverged(const std::string& status, const std::string& head
 // The fastest velocity of the current state against the run's largest so far (every accepted
 // state, from the first one of this run: a restart counts from its checkpoint); returns the
 // current state's.
-Speed Simulation::track_speed() {
-  const Speed s = model_->max_speed();
+Speed Simulation::track_speed() { return track_speed(model_->max_speed()); }
+
+Speed Simulation::track_speed(const Speed& s) {
   if (s.value > max_speed_.value || max_speed_.quantity.empty()) {
     max_speed_ = s;
     max_speed_t_ = model_->time();
@@ -487,8 +494,9 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   s["reason"] = reason;
   s["exit_code"] = code;
   s["start_time"] = t0_;
-  s["final_time"] = model_->time();
-  s["steps"] = model_->steps();
+  const bool rejected = rejected_from_ >= 0.0;  // the last step was taken, then rejected
+  s["final_time"] = rejected ? rejected_from_ : model_->time();
+  s["steps"] = model_->steps() - (rejected ? 1 : 0);
   if (restarted_)
     s["restart"] = {{"from", rc_.restart_from}, {"checkpoint_time", restart_time_}};
   // the fastest material velocity of the accepted states (the stability suite's bound)
@@ -570,7 +578,17 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
     layout.push_back({{"t", t}, {"subdomains", sub}});
   }
   s["interfaces"] = {{"positions_over_time", layout}, {"moves", moves}};
-  s["outputs"] = {{"snapshots", outputs_}, {"directory", rc_.directory}, {"files", files_}};
+  // the files of this run that exist now (a run stopped before its first output or checkpoint
+  // has not written them: a restart into a new directory, stopped in its first step, listed
+  // fields.xdmf and checkpoint.h5; an independent run); summary.json itself is being written
+  std::vector<std::string> written;
+  for (const auto& f : files_)
+    if (f == "summary.json" || std::filesystem::exists(rc_.directory + "/" + f))
+      written.push_back(f);
+  s["outputs"] = {{"output_times", outputs_},
+                  {"field_snapshots", rc_.fields ? outputs_ : 0},
+                  {"directory", rc_.directory},
+                  {"files", written}};
   if (io_->wall_on) s["wall_load"] = wall_summary();
   if (!io_rank()) return;
   if (io_->wall_on) io_->wall.flush();
@@ -804,10 +822,13 @@ int Simulation::advance(const io::Checkpoint& ck) {
     }
     model_->accept();
     last_dt_ = dt;
-    const Speed sp = track_speed();
-    // A speed far above what the scene's energy allows: the discretisation has failed (the
-    // state is accepted but not written; the last output and checkpoint stay)
+    // A speed far above what the scene's energy allows: the discretisation has failed. The
+    // step is rejected: not written (the last output and checkpoint stay), and neither its
+    // speed nor its time enter summary.json's max_speed, final_time and steps (an independent
+    // run found the rejected step's 2.0133 m/s reported as the run's fastest accepted state).
+    const Speed sp = model_->max_speed();
     if (const double lim = rc_.effective_speed_limit(); lim > 0.0 && sp.value > lim) {
+      rejected_from_ = t;
       std::ostringstream os;
       os << "material speed above the limit (" << rc_.speed_limit_source() << ": " << lim
          << " m/s): " << sp.quantity << " = " << sp.value << " m/s at x = " << sp.x
@@ -815,6 +836,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
          << " s";
       return stop_diverged("diverged", "run diverged: ", os.str());
     }
+    track_speed(sp);
     // between accepted steps: the model may change its layout (the domain manager)
     const auto t3 = Clock::now();
     try {

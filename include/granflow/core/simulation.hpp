@@ -125,7 +125,11 @@ class Simulation {
   double last_dt_ = 0.0;
   Speed max_speed_;          ///< fastest material velocity over the accepted states so far
   double max_speed_t_ = 0.0;  ///< its time
+  /// A step that the speed limit rejected after the model took it: its start time, and the
+  /// summary reports the run as ending there (final_time, steps), not after it (-1: none)
+  double rejected_from_ = -1.0;
   Speed track_speed();
+  Speed track_speed(const Speed& s);  ///< record a speed the caller has measured
   int stop_diverged(const std::string& status, const std::string& headline,
                     const std::string& reason);
   long last_progress_step_ = -1;
