@@ -173,9 +173,12 @@ DamSolver::DamSolver(double x_left, double x_right, const DamConfig& cfg, const 
 }
 
 void DamSolver::set_state(const std::function<double(double)>& h,
-                          const std::function<double(double)>& u, double t0) {
-  // 4-point Gauss-Legendre on each cell: exact cell averages for piecewise-polynomial data of
-  // degree <= 7, and second-order accurate averages of discontinuous data.
+                          const std::function<double(double)>& u, double t0,
+                          const std::vector<double>& breaks) {
+  // 4-point Gauss-Legendre on each piece of a cell between the breaks: exact cell averages for
+  // data that are polynomials of degree <= 7 between the breaks. Across a jump that is not a
+  // break the average is only second-order accurate: a DAM block [0.2, 0.203] m in 10 mm cells
+  // got 42 % too little mass when its ends were not breaks (an independent run).
   static const double gx[4] = {-0.8611363115940526, -0.3399810435848563, 0.3399810435848563,
                                0.8611363115940526};
   static const double gw[4] = {0.3478548451374538, 0.6521451548625461, 0.6521451548625461,
@@ -185,12 +188,29 @@ void DamSolver::set_state(const std::function<double(double)>& h,
   hu_.assign(static_cast<std::size_t>(n_), 0.0);
   for (int j = 0; j < n_; ++j) {
     const double xc = x0_ + (j + 0.5) * dx_;
+    const double xl = x0_ + j * dx_, xr = x0_ + (j + 1) * dx_;
+    std::vector<double> ends{xl};
+    for (double b : breaks)
+      if (b > xl + 1e-12 * dx_ && b < xr - 1e-12 * dx_) ends.push_back(b);
+    ends.push_back(xr);
+    std::sort(ends.begin(), ends.end());
     double hs = 0.0, hus = 0.0;
-    for (int q = 0; q < 4; ++q) {
-      const double x = xc + 0.5 * dx_ * gx[q];
-      const double hq = std::max(0.0, h(x));
-      hs += 0.5 * gw[q] * hq;
-      hus += 0.5 * gw[q] * hq * u(x);
+    // a piece of half-length hl about pc, its share of the cell hl / dx per unit weight
+    auto piece = [&](double pc, double hl, double share) {
+      for (int q = 0; q < 4; ++q) {
+        const double x = pc + hl * gx[q];
+        const double hq = std::max(0.0, h(x));
+        hs += share * gw[q] * hq;
+        hus += share * gw[q] * hq * u(x);
+      }
+    };
+    if (ends.size() == 2) {
+      piece(xc, 0.5 * dx_, 0.5);  // the whole cell (as before the breaks: bit for bit)
+    } else {
+      for (std::size_t e = 0; e + 1 < ends.size(); ++e) {
+        const double hl = 0.5 * (ends[e + 1] - ends[e]);
+        piece(0.5 * (ends[e] + ends[e + 1]), hl, hl / dx_);
+      }
     }
     h_[static_cast<std::size_t>(j)] = hs;
     hu_[static_cast<std::size_t>(j)] = hs > cfg_.dry_depth ? hus : 0.0;

@@ -130,13 +130,14 @@ void InitialCondition::apply(const core::Channel& ch, DamSolver& dam) const {
     }
     case Type::DamBreak: {
       const double hl = left_depth, hr = right_depth, x0 = position, u0 = velocity;
-      dam.set_state([=](double x) { return x < x0 ? hl : hr; }, [u0](double) { return u0; });
+      dam.set_state([=](double x) { return x < x0 ? hl : hr; }, [u0](double) { return u0; }, 0.0,
+                    {x0});
       break;
     }
     case Type::Block: {
       const double a = start, b = end, h0 = depth, u0 = velocity;
       dam.set_state([=](double x) { return (x >= a && x <= b) ? h0 : 0.0; },
-                    [=](double x) { return (x >= a && x <= b) ? u0 : 0.0; });
+                    [=](double x) { return (x >= a && x <= b) ? u0 : 0.0; }, 0.0, {a, b});
       break;
     }
     case Type::SineWave: {

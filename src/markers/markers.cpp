@@ -89,6 +89,44 @@ long long MarkerSet::seed(const std::function<bool(double, double)>& inside) {
   return added;
 }
 
+long long MarkerSet::seed_rectangle(double xa, double xb, double h) {
+  const int nmx = cfg_.per_cell_x, nmz = cfg_.per_cell_z, nz = grid_.nz;
+  const double sx = spacing_x(), sz = spacing_z();
+  // the covered fraction of [lo, hi) by [a, b), snapped to 0 and 1 within round-off so that a
+  // rectangle on the marker lattice seeds exactly seed()'s markers
+  auto cover = [](double lo, double hi, double a, double b) {
+    const double c = (std::min(hi, b) - std::max(lo, a)) / (hi - lo);
+    return c < 1e-9 ? 0.0 : c > 1.0 - 1e-9 ? 1.0 : c;
+  };
+  auto pick = [](long long j, double c) {
+    return std::floor(static_cast<double>(j + 1) * c) > std::floor(static_cast<double>(j) * c);
+  };
+  long long added = 0;
+  for (int i = 0; i < slab_.nx_local; ++i) {
+    const int gi = slab_.i0 + i;
+    for (int k = 0; k < nz; ++k) {
+      if (obst_[static_cast<std::size_t>((i + G) * nz + k)]) continue;
+      for (int a = 0; a < nmx; ++a)
+        for (int b = 0; b < nmz; ++b) {
+          const long long jx = static_cast<long long>(gi) * nmx + a;  // lattice column
+          const long long jz = static_cast<long long>(k) * nmz + b;   // lattice row
+          const double cx = cover(jx * sx, (jx + 1) * sx, xa, xb);
+          const double cz = cover(jz * sz, (jz + 1) * sz, 0.0, h);
+          if (cx == 0.0 || cz == 0.0) continue;
+          // a partly covered row is thinned along x, a partly covered column along z
+          if (cz < 1.0 ? !pick(jx, cx * cz) : cx < 1.0 && !pick(jz, cx)) continue;
+          const double x = gi * dx_ + (a + 0.5) * sx, z = k * dz_ + (b + 0.5) * sz;
+          const long long id =
+              seed_base_ + ((static_cast<long long>(gi) * nz + k) * nmx + a) * nmz + b;
+          m_.push_back(Marker{x, z, id});
+          ++added;
+        }
+    }
+  }
+  seed_base_ += static_cast<long long>(grid_.nx) * nz * nmx * nmz;
+  return added;
+}
+
 long long MarkerSet::seed_depth(const std::function<double(double)>& h) {
   return seed([&h](double x, double z) { return z < h(x); });
 }

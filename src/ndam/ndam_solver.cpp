@@ -202,7 +202,7 @@ void NdamSolver::rest_state() {
   if (cfg_.free_surface) {
     const double xa = cfg_.initial_x0 - cfg_.x0, xb = cfg_.initial_x1 - cfg_.x0,
                  h0 = cfg_.initial_depth;
-    if (h0 > 0.0) markers_->seed([&](double x, double z) { return x >= xa && x < xb && z < h0; });
+    if (h0 > 0.0) markers_->seed_rectangle(xa, xb, h0);
     mass0_ = markers_->mass().area;
     marker_mass_ = markers_->mass();
     update_flags(*markers_, mac_.flags, mac_.empty_mask, mac_.depth);

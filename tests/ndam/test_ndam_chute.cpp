@@ -143,6 +143,32 @@ TEST(NdamFreeSurface, DropletFallsFreely) {
   EXPECT_GE(in_first_cell, 20);  // the case tested: a fall of most of a cell from rest
 }
 
+// The initial layer holds its rectangle's area (MarkerSet::seed_rectangle): depth x length to
+// within one marker per partly covered marker row and column, here the top row and the two end
+// columns, so 3 markers of A_m = dx dz / 16. Seeding a marker where its centre lay inside
+// rounded the depth to whole marker rows: an independent run (2026-12-05, 10 mm cells, rows of
+// 2.5 mm) got nothing for a 1 mm layer, 25 % too much for 2 mm and 2.2 % too little for
+// 53.7 mm. A layer on the marker lattice (0.03 m from x = 0) seeds the same markers as before.
+TEST(NdamFreeSurface, InitialLayerHoldsItsRectanglesArea) {
+  const double am = 0.01 * 0.01 / 16.0;
+  for (double depth : {0.001, 0.002, 0.0537, 0.03})
+    for (const auto& ab : {std::array<double, 2>{0.0, 1e30}, {0.0137, 0.1921}}) {
+      FsCase c = closed_pool(20, 15, 0.2, 0.15, depth);
+      c.init_x0 = ab[0];
+      c.init_x1 = ab[1];
+      auto s = make_fs(c);
+      const double exact = depth * (std::min(ab[1], 0.2) - ab[0]);
+      const double area = s->markers()->mass().area;
+      std::printf("[measured] initial layer %.4f m on [%.4f, %.4f): area %.6e against %.6e "
+                  "(%.2f markers)\n",
+                  depth, ab[0], std::min(ab[1], 0.2), area, exact, (area - exact) / am);
+      EXPECT_NEAR(area, exact, 3.0 * am) << depth << " m on [" << ab[0] << ", " << ab[1] << ")";
+      if (ab[0] == 0.0 && depth == 0.03) {  // on the lattice: every marker whole (round-off)
+        EXPECT_NEAR(area, exact, 1e-12 * exact);
+      }
+    }
+}
+
 // Material that reaches the top of the box stops the run (NdamSolver::check): the free surface
 // has met the lid, and a deposit deeper than the box would be capped with its markers packed
 // into the top cells (Setup II at 5 mm to 1.5 s in its 0.15 m box completed with a 0.1525 m wall

@@ -114,9 +114,11 @@ class DamSolver final : public core::Stepper {
             DamBoundary left, DamBoundary right);
 
   /// Set the state on the primary grid from point values h(x), u(x), averaged over each cell
-  /// with 4-point Gauss quadrature; time and step counters restart at t0.
+  /// with 4-point Gauss quadrature on each piece of the cell between the `breaks` (the jumps of
+  /// piecewise data: a block's ends, a dam's position), so that such data get exact cell
+  /// averages; time and step counters restart at t0.
   void set_state(const std::function<double(double)>& h, const std::function<double(double)>& u,
-                 double t0 = 0.0);
+                 double t0 = 0.0, const std::vector<double>& breaks = {});
 
   // Stepper
   std::string model_name() const override { return "DAM"; }

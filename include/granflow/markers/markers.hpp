@@ -111,6 +111,14 @@ class MarkerSet {
   long long seed(const std::function<bool(double x, double z)>& inside);
   /// seed() of the layer z < h(x).
   long long seed_depth(const std::function<double(double x)>& h);
+  /// The rectangle [xa, xb) x [0, h) (box coordinates) with its area to within one marker per
+  /// partly covered marker row and column: each marker stands for its sub-cell of the lattice,
+  /// fully covered ones are seeded, and of those that the rectangle covers by a fraction c (the
+  /// top row, the two end columns) every marker whose index j along that row or column has
+  /// floor((j + 1) c) > floor(j c), so that a row of n such markers holds n c of them to within
+  /// one, the same on any number of ranks. seed()'s rule (a marker inside when its centre is)
+  /// rounds the depth to whole marker rows: 1 mm in rows of 2.5 mm seeded nothing.
+  long long seed_rectangle(double xa, double xb, double h);
   /// Removes this rank's markers with pred(x, z) (counted in `removed`). Returns the number.
   long long remove_if(const std::function<bool(double x, double z)>& pred);
   /// Takes back up to n markers through the inflow side: those of this rank nearest to x = 0 in
