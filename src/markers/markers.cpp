@@ -66,7 +66,11 @@ MarkerSet::MarkerSet(MPI_Comm comm, const Grid& grid, const Slab& slab, const Ma
 // ---------------------------------------------------------------------------------------------
 // seeding and removal
 
-long long MarkerSet::seed(const std::function<bool(double, double)>& inside) {
+// Every lattice position (a, b) of every open cell (gi, k) of this rank that `keep` accepts
+// (given its lattice column jx, row jz and centre x, z) becomes a marker; the id follows from
+// the position, so that seeding does not depend on the ranks.
+long long MarkerSet::seed_lattice(
+    const std::function<bool(long long jx, long long jz, double x, double z)>& keep) {
   const int nmx = cfg_.per_cell_x, nmz = cfg_.per_cell_z, nz = grid_.nz;
   const double sx = spacing_x(), sz = spacing_z();
   long long added = 0;
@@ -77,7 +81,9 @@ long long MarkerSet::seed(const std::function<bool(double, double)>& inside) {
       for (int a = 0; a < nmx; ++a)
         for (int b = 0; b < nmz; ++b) {
           const double x = gi * dx_ + (a + 0.5) * sx, z = k * dz_ + (b + 0.5) * sz;
-          if (!inside(x, z)) continue;
+          if (!keep(static_cast<long long>(gi) * nmx + a, static_cast<long long>(k) * nmz + b,
+                    x, z))
+            continue;
           const long long id =
               seed_base_ + ((static_cast<long long>(gi) * nz + k) * nmx + a) * nmz + b;
           m_.push_back(Marker{x, z, id});
@@ -89,8 +95,11 @@ long long MarkerSet::seed(const std::function<bool(double, double)>& inside) {
   return added;
 }
 
+long long MarkerSet::seed(const std::function<bool(double, double)>& inside) {
+  return seed_lattice([&](long long, long long, double x, double z) { return inside(x, z); });
+}
+
 long long MarkerSet::seed_rectangle(double xa, double xb, double h) {
-  const int nmx = cfg_.per_cell_x, nmz = cfg_.per_cell_z, nz = grid_.nz;
   const double sx = spacing_x(), sz = spacing_z();
   // the covered fraction of [lo, hi) by [a, b), snapped to 0 and 1 within round-off so that a
   // rectangle on the marker lattice seeds exactly seed()'s markers
@@ -98,33 +107,19 @@ long long MarkerSet::seed_rectangle(double xa, double xb, double h) {
     const double c = (std::min(hi, b) - std::max(lo, a)) / (hi - lo);
     return c < 1e-9 ? 0.0 : c > 1.0 - 1e-9 ? 1.0 : c;
   };
+  // of a row of such markers j = j0..j1 this keeps round((j1 + 1) c) - round(j0 c): n c to
+  // within one marker, whatever the row's start
   auto pick = [](long long j, double c) {
-    return std::floor(static_cast<double>(j + 1) * c) > std::floor(static_cast<double>(j) * c);
+    return std::floor(static_cast<double>(j + 1) * c + 0.5) >
+           std::floor(static_cast<double>(j) * c + 0.5);
   };
-  long long added = 0;
-  for (int i = 0; i < slab_.nx_local; ++i) {
-    const int gi = slab_.i0 + i;
-    for (int k = 0; k < nz; ++k) {
-      if (obst_[static_cast<std::size_t>((i + G) * nz + k)]) continue;
-      for (int a = 0; a < nmx; ++a)
-        for (int b = 0; b < nmz; ++b) {
-          const long long jx = static_cast<long long>(gi) * nmx + a;  // lattice column
-          const long long jz = static_cast<long long>(k) * nmz + b;   // lattice row
-          const double cx = cover(jx * sx, (jx + 1) * sx, xa, xb);
-          const double cz = cover(jz * sz, (jz + 1) * sz, 0.0, h);
-          if (cx == 0.0 || cz == 0.0) continue;
-          // a partly covered row is thinned along x, a partly covered column along z
-          if (cz < 1.0 ? !pick(jx, cx * cz) : cx < 1.0 && !pick(jz, cx)) continue;
-          const double x = gi * dx_ + (a + 0.5) * sx, z = k * dz_ + (b + 0.5) * sz;
-          const long long id =
-              seed_base_ + ((static_cast<long long>(gi) * nz + k) * nmx + a) * nmz + b;
-          m_.push_back(Marker{x, z, id});
-          ++added;
-        }
-    }
-  }
-  seed_base_ += static_cast<long long>(grid_.nx) * nz * nmx * nmz;
-  return added;
+  return seed_lattice([&](long long jx, long long jz, double, double) {
+    const double cx = cover(jx * sx, (jx + 1) * sx, xa, xb);
+    const double cz = cover(jz * sz, (jz + 1) * sz, 0.0, h);
+    if (cx == 0.0 || cz == 0.0) return false;
+    // a partly covered row is thinned along x, a partly covered column along z
+    return cz < 1.0 ? pick(jx, cx * cz) : cx < 1.0 ? pick(jz, cx) : true;
+  });
 }
 
 long long MarkerSet::seed_depth(const std::function<double(double)>& h) {

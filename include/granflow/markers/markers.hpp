@@ -115,8 +115,8 @@ class MarkerSet {
   /// partly covered marker row and column: each marker stands for its sub-cell of the lattice,
   /// fully covered ones are seeded, and of those that the rectangle covers by a fraction c (the
   /// top row, the two end columns) every marker whose index j along that row or column has
-  /// floor((j + 1) c) > floor(j c), so that a row of n such markers holds n c of them to within
-  /// one, the same on any number of ranks. seed()'s rule (a marker inside when its centre is)
+  /// floor((j + 1) c + 1/2) > floor(j c + 1/2), so that a row of n such markers holds n c of
+  /// them to within one, the same on any number of ranks. seed()'s rule (a marker inside when its centre is)
   /// rounds the depth to whole marker rows: 1 mm in rows of 2.5 mm seeded nothing.
   long long seed_rectangle(double xa, double xb, double h);
   /// Removes this rank's markers with pred(x, z) (counted in `removed`). Returns the number.
@@ -249,6 +249,10 @@ class MarkerSet {
   std::vector<Marker> m_;
   std::vector<char> obst_;  // (nx_local + 2G) * nz, column i + G
   std::vector<double> acc_;  // injection row accumulators
+  /// seed() and seed_rectangle(): the lattice positions that `keep` accepts (lattice column
+  /// and row over the whole box, the position's centre)
+  long long seed_lattice(
+      const std::function<bool(long long jx, long long jz, double x, double z)>& keep);
   long long seed_base_ = 0, inject_next_ = 0;
   long long injected_ = 0, removed_ = 0, migrated_ = 0;  // this rank's counters
 };
