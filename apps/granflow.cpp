@@ -153,12 +153,16 @@ int main(int argc, char** argv) {
     const int code = sim.run();
     const auto mb = sim.model().mass_balance();
     out << "granflow: " << (code == core::kOk ? "completed" : "stopped") << " at t = "
-              << sim.model().time() << " s after " << sim.model().steps()
+              << sim.final_time() << " s after " << sim.final_steps()
               << " steps; mass defect " << mb.defect() << " m^2 (initial " << mb.initial
               << ", final " << mb.current << ")\n";
     return code;
   } catch (const params::InputError& e) {
-    err << "granflow: invalid input: " << e.what() << "\n";
+    // every input error names the scene file (the checks after loading it, such as the
+    // restart's, did not: an independent run)
+    std::string what = e.what();
+    if (what.rfind(file, 0) != 0) what = file + ": " + what;
+    err << "granflow: invalid input: " << what << "\n";
     return core::kInputError;
   } catch (const std::bad_alloc&) {
     err << "granflow: error: out of memory (std::bad_alloc); see 'memory estimate' of "

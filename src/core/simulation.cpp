@@ -494,9 +494,8 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   s["reason"] = reason;
   s["exit_code"] = code;
   s["start_time"] = t0_;
-  const bool rejected = rejected_from_ >= 0.0;  // the last step was taken, then rejected
-  s["final_time"] = rejected ? rejected_from_ : model_->time();
-  s["steps"] = model_->steps() - (rejected ? 1 : 0);
+  s["final_time"] = final_time();
+  s["steps"] = final_steps();
   if (restarted_)
     s["restart"] = {{"from", rc_.restart_from}, {"checkpoint_time", restart_time_}};
   // the fastest material velocity of the accepted states (the stability suite's bound)

@@ -10,7 +10,8 @@ had never written). Asserted, exactly (they are bookkeeping, not numerics):
 1. Setup II at 10 mm with a 1 m/s limit (tests/cli/diverge_speed.xml): exit 3, status
    "diverged"; max_speed.value below the limit (the accepted states), final_time the start of
    the rejected step as the diagnosis names it ("in the step from t = ..."), at or after the
-   last row of profiles.csv; every file in outputs.files exists.
+   last row of profiles.csv; every file in outputs.files exists; the closing line on stdout
+   ("stopped at t = ... after N steps") agrees with final_time and steps.
 2. setup2_dam.xml at 100 cells to 0.5 s, then restarted from its checkpoint into a new
    directory with a 0.1 m/s limit: exit 3 in the first step, final_time the checkpoint's time,
    steps the checkpoint's, and outputs.files lists only files that exist (not fields.xdmf nor
@@ -48,6 +49,12 @@ def run(text, name):
     print(f"{name}: exit {p.returncode}\n{p.stdout[-1200:]}")
     d = os.path.join(out, name)
     s = json.load(open(os.path.join(d, "summary.json")))
+    # the closing line says what summary.json says (6 significant digits)
+    m = re.search(r"(?:completed|stopped) at t = ([0-9.eE+-]+) s after (\d+) steps", p.stdout)
+    if not m or abs(float(m.group(1)) - s["final_time"]) > 1e-5 * max(1.0, s["final_time"]) \
+            or int(m.group(2)) != s["steps"]:
+        bad.append(f"{name}: the closing line {m.group(0) if m else None!r} is not summary.json's "
+                   f"t = {s['final_time']} after {s['steps']} steps")
     return p.returncode, s, d
 
 

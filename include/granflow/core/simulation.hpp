@@ -94,6 +94,9 @@ class Simulation {
   /// Run to the end time; returns an ExitCode. summary.json is written in every case.
   int run();
   const Stepper& model() const { return *model_; }
+  /// Where the run ended, as summary.json says: before a step the speed limit rejected
+  double final_time() const { return rejected_from_ >= 0.0 ? rejected_from_ : model_->time(); }
+  long final_steps() const { return model_->steps() - (rejected_from_ >= 0.0 ? 1 : 0); }
   /// Build provenance for summary.json (version, commit, build type, compiler, Trilinos),
   /// given by the application, which is the only target that compiles the generated file.
   void set_build_info(std::map<std::string, std::string> info) { build_info_ = std::move(info); }
