@@ -94,13 +94,14 @@ def variant_xml(family, variant, args, outdir):
     return text, d
 
 
-def reusable(build, scene, text, summary):
-    """A run of `text` already made by BUILD's granflow: the same scene, a summary that says it
-    completed and is newer than the binary (an older one is another build's)."""
+def reusable(build, scene, text, summary, statuses=("completed",)):
+    """A run of `text` already made by BUILD's granflow: the same scene, a summary whose status
+    is one of `statuses` (by default: it completed) and is newer than the binary (an older one
+    is another build's)."""
     exe = os.path.join(build, "apps", "granflow")
     return (os.path.exists(summary) and os.path.exists(scene) and open(scene).read() == text
             and os.path.getmtime(summary) >= os.path.getmtime(exe)
-            and json.load(open(summary)).get("status") == "completed")
+            and json.load(open(summary)).get("status") in statuses)
 
 
 def run_variant(build, family, variant, args, outdir):

@@ -4,9 +4,9 @@
   pareto.py BUILD OUTDIR [--family setup1|setup2|lab_chute] [--cells MM ...] [--end T]
             [--height H] [--times T ...] [--quick] [--rerun]
 
-Runs (or reuses: a run whose scene and summary.json say it completed, made by BUILD's granflow
-(its summary newer than the binary), is not run again, so the
-matrix can be built over several sittings) for every resolution in --cells:
+Runs (or reuses: a run whose scene and summary.json say it completed, or stopped with a
+diagnosis, made by BUILD's granflow (its summary newer than the binary), is not run again, so
+the matrix can be built over several sittings) for every resolution in --cells:
   full            full 2D (N-DAM)
   static          the paper's static layout
   apriori         the a priori layout of a DAM run (paper section 4.1)
@@ -20,7 +20,9 @@ Errors are the relative L2 and max of h and u_mean over the flowing part of the 
 (h > 1 mm, |u_mean| > 1 mm/s) at the given times, the reference sampled at each run's columns;
 the deposit depth at the wall; the run's wall time and steps from its summary.json.
 Writes OUTDIR/pareto.csv, OUTDIR/pareto.md and OUTDIR/pareto.png (log-log error of u_mean
-against wall time, one marker per method and resolution).
+against run time, one marker per method and resolution). A method that stops with exit 3 (a
+static layout whose 1D part the shock enters may) keeps its rows up to the stop, and pareto.md
+says where and why it stopped; the reference must complete.
 
 --quick: Setup II at 10 and 5 mm to 0.6 s with full, static, dynamic and dam (about a minute;
 what the test suite runs to check that the report is made and agrees with the runs).
@@ -104,7 +106,9 @@ def run(build, family, method, cell, args):
     text = scene_text(family, method, cell, args, d)
     scene = os.path.join(args.outdir, name + ".xml")
     summary = os.path.join(d, "summary.json")
-    if not args.rerun and cl.reusable(build, scene, text, summary):
+    # a run that stopped with a diagnosis (exit 3) is a result of this build too
+    if not args.rerun and cl.reusable(build, scene, text, summary,
+                                      ("completed", "diverged", "stopped")):
         print(f"{name:22s} reused", flush=True)
         return d
     os.makedirs(args.outdir, exist_ok=True)
@@ -115,6 +119,12 @@ def run(build, family, method, cell, args):
     print(f"{name:22s} exit {p.returncode} in {time.time() - t0:.1f} s", flush=True)
     if p.returncode != 0:
         print(p.stdout[-1500:])
+        # A method that stops with a diagnosis (exit 3: e.g. a static layout whose interface the
+        # shock reaches) is a result: its rows up to the stop stay in the report, and the report
+        # says where and why it stopped. The reference (full 2D) must complete.
+        if p.returncode == 3 and method != "full" and os.path.exists(summary):
+            print(f"{name:22s} stopped (exit 3); kept up to its stop", flush=True)
+            return d
         return None
     return d
 
@@ -203,6 +213,7 @@ def main():
                          "cpu_seconds": s.get("cpu_time", {}).get("process_seconds",
                                                                   s["wall_time"]["total"]),
                          "steps": s["steps"],
+                         "status": s["status"],
                          "summary": os.path.join(d, "summary.json")})
     os.makedirs(args.outdir, exist_ok=True)
     with open(os.path.join(args.outdir, "pareto.csv"), "w", newline="") as f:
@@ -220,6 +231,14 @@ def main():
                   f"{r['h_max']:.3f} | {r['u_L2']:.3f} | {r['u_max']:.3f} | "
                   f"{r['wall_depth']:.4f} | {r['wall_seconds']:.1f} | {r['cpu_seconds']:.1f} | "
                   f"{r['steps']} |")
+    stopped = [(m, c, json.load(open(os.path.join(d, "summary.json"))))
+               for (m, c), d in sorted(runs.items(), key=lambda kv: (kv[0][1], kv[0][0]))]
+    stopped = [(m, c, s) for m, c, s in stopped if s["status"] != "completed"]
+    if stopped:
+        md += ["", "Runs that stopped before the end time (their rows end at the last output "
+               "before the stop; wall time, CPU time and steps are up to the stop):"]
+        md += [f"- {m} {c:g} mm: {s['status']} at t = {s['final_time']:.4g} s: {s['reason']}"
+               for m, c, s in stopped]
     open(os.path.join(args.outdir, "pareto.md"), "w").write("\n".join(md) + "\n")
     print("\n".join(md))
     try:
