@@ -103,6 +103,11 @@ struct NdamConfig {
   /// Surface cell (top side empty) weight their mass and their non-viscous forces by the
   /// material share of the face's cells (momentum.cpp); false: every cell as a full cell.
   bool surface_mass_share = false;
+  /// 'Surface cell mass' = Full cell and weight: every cell a full cell, and the Coulomb bed
+  /// friction loaded with the weight of the full cells of its columns (the empty part of a
+  /// column's top material cell added to the markers' depth), as the momentum step drives
+  /// them: a plug then follows its friction law at any depth (boundaries.cpp, update_friction)
+  bool full_cell_weight = false;
   /// 'Surface pressure' = Ghost fluid: Surface cells whose centre lies below the free surface
   /// are pressure unknowns, with p = 0 imposed at the surface's position on the faces to their
   /// Empty neighbours (a ghost value), and those faces are momentum unknowns
