@@ -141,6 +141,22 @@ void compare_chute(const char* what, const ndam_chute::FsCase& c) {
 }
 }  // namespace
 
+// The initial layer off the marker lattice (MarkerSet::seed_rectangle thins its partly covered
+// top row and end columns by a rule on the global lattice index): two ranks seed the same
+// markers as one, so the initial marker area and depths are equal exactly, and the layer
+// [0.0137, 0.2621) m x 21.3 mm crosses the slab boundary at 0.15 m.
+TEST(NdamMpi, InitialLayerOffTheLatticeIsTheSameOnTwoRanks) {
+  auto c = ndam_chute::closed_pool(30, 10, 0.3, 0.1, 0.0213);
+  c.init_x0 = 0.0137;
+  c.init_x1 = 0.2621;
+  auto par = ndam_chute::make_fs(c, MPI_COMM_WORLD);
+  auto ser = ndam_chute::make_fs(c, MPI_COMM_SELF);
+  EXPECT_EQ(par->mass_balance().current, ser->mass_balance().current);
+  const auto pa = par->profile(), se = ser->profile();
+  EXPECT_EQ(max_abs_diff(pa.h, se.h), 0.0);
+  EXPECT_GT(par->mass_balance().current, 0.0);
+}
+
 TEST(NdamMpi, FreeSurfaceChute) {
   compare_chute("free-surface chute (DP, Coulomb)", ndam_chute::gate_chute());
 }
