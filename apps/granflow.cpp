@@ -151,7 +151,7 @@ int main(int argc, char** argv) {
     sim.set_build_info(granflow_build_info());
     sim.set_memory_estimate(memory.bytes);
     const int code = sim.run();
-    const auto mb = sim.model().mass_balance();
+    const auto mb = sim.final_mass_balance();
     out << "granflow: " << (code == core::kOk ? "completed" : "stopped") << " at t = "
               << sim.final_time() << " s after " << sim.final_steps()
               << " steps; mass defect " << mb.defect() << " m^2 (initial " << mb.initial

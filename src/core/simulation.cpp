@@ -543,7 +543,13 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
                      {"note", "rank 0, this process (a restart starts again from 0), including "
                               "the set-up before the time loop"}};
   }
-  const auto m = model_->mass_balance();
+  const auto m = final_mass_balance();
+  if (rejected_from_ >= 0.0)
+    s["rejected_step"] = {{"from", rejected_from_},
+                          {"dt", rejected_dt_},
+                          {"note", "the step the speed limit rejected: not written; final_time, "
+                                   "steps, max_speed and mass_balance end before it, the "
+                                   "solver statistics count its solves"}};
   s["mass_balance"] = {{"unit", "m^2 (per unit channel width)"},
                        {"initial", m.initial},
                        {"final", m.current},
@@ -819,6 +825,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
       return hl.limit ? stop_diverged("stopped", "run stopped at a limit of the scene: ", os.str())
                       : stop_diverged("diverged", "run diverged: ", os.str());
     }
+    last_good_mass_ = model_->mass_balance();  // what the summary reports if the step is rejected
     model_->accept();
     last_dt_ = dt;
     // A speed far above what the scene's energy allows: the discretisation has failed. The
@@ -828,6 +835,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
     const Speed sp = model_->max_speed();
     if (const double lim = rc_.effective_speed_limit(); lim > 0.0 && sp.value > lim) {
       rejected_from_ = t;
+      rejected_dt_ = dt;
       std::ostringstream os;
       os << "material speed above the limit (" << rc_.speed_limit_source() << ": " << lim
          << " m/s): " << sp.quantity << " = " << sp.value << " m/s at x = " << sp.x

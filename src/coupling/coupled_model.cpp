@@ -141,8 +141,7 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   // independent run found a Static layout taking 'Lower threshold' 0.5 (above the upper one),
   // 'Hold time' 0 and 'Rest speed' 100 without a word, and an A priori one its 'Models'.
   auto unused = [&](const char* name, const std::string& why) {
-    if (user && user->isParameter(name))
-      params::fail(pl, name, Teuchos::toString(user->getEntry(name).getAny(false)), why);
+    params::fail_if_given(pl, user, name, why);
   };
   const bool dynamic = d.layout == "Dynamic";
   if (!dynamic)

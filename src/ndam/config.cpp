@@ -317,7 +317,7 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
     params::fail(pl, "Surface cell mass", "Material share",
                  "the material share weights the mass of the implicit momentum step; with "
                  "Momentum = Explicit it would divide the explicit viscous stress by it; "
-                 "allowed with Explicit: Full cell");
+                 "allowed with Explicit: Full cell or Full cell and weight");
   {
     const std::string sp = pl.get<std::string>("Surface pressure");
     c.ghost_surface = sp != "Surface cells";
@@ -348,8 +348,8 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
     // a lid is a wall that moves: without its speed it would be a No-slip wall by default
     if (w.kind == WallKind::MovingLid && ub && !ub->isParameter(side + " lid velocity"))
       params::fail(b, side, "Moving lid",
-                   "needs '" + side + " lid velocity' (its tangential speed; a lid at rest is "
-                   "a No-slip wall); allowed: give '" + side + " lid velocity', or No-slip");
+                   "needs '" + side + " lid velocity' (its tangential speed); allowed: give '" +
+                       side + " lid velocity', or another side type");
     c.walls[static_cast<std::size_t>(s)] = w;
   }
   const bool pl_ = c.walls[0].kind == WallKind::Periodic, pr = c.walls[1].kind == WallKind::Periodic;
@@ -508,8 +508,7 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
   // unused rheology parameter is: an independent run found 'Surface pressure' in a closed box
   // and 'Pressure iteration' with the lagged coupling accepted without effect.
   auto unused = [&](const char* name, const std::string& why) {
-    if (user && user->isParameter(name))
-      params::fail(pl, name, Teuchos::toString(user->getEntry(name).getAny(false)), why);
+    params::fail_if_given(pl, user, name, why);
   };
   if (!c.free_surface)
     for (const char* name :

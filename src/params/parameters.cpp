@@ -114,6 +114,20 @@ void fail(const ParameterList& pl, const std::string& name, const std::string& v
   throw InputError("parameter '" + path(pl, name) + "' = " + value + ": " + why);
 }
 
+void fail_if_given(const ParameterList& pl, const ParameterList* user, const std::string& name,
+                   const std::string& why) {
+  if (!user || !user->isParameter(name)) return;
+  const auto& any = user->getEntry(name).getAny(false);
+  std::string value;
+  if (any.type() == typeid(bool)) value = Teuchos::any_cast<bool>(any) ? "true" : "false";
+  else if (any.type() == typeid(double)) value = str(Teuchos::any_cast<double>(any));
+  else if (any.type() == typeid(Teuchos::Array<double>)) {
+    const auto& a = Teuchos::any_cast<Teuchos::Array<double>>(any);
+    value = str(std::vector<double>(a.begin(), a.end()));
+  } else value = Teuchos::toString(any);
+  fail(pl, name, value, why);
+}
+
 namespace {
 // What a validator allows, as the reference and the messages print it: "[min, max]" for
 // numbers, the values of an enum (`quoted` in Markdown), "each entry ..." for arrays.

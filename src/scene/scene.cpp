@@ -338,12 +338,14 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
       };
       coupling::TwoD two_d;
       two_d.comm = comm;
-      two_d.cfg = ndam::NdamConfig::from_parameters(p.sublist("N-DAM"), user_sub("N-DAM"),
-                                                    channel, ranks);
-      if (!two_d.cfg.free_surface)
+      // before the 2D configuration, whose channel checks would otherwise speak of a closed
+      // box (a reviewer: "allowed: Wall" for a coupled scene with 'Free surface' false)
+      if (!p.sublist("N-DAM").get<bool>("Free surface"))
         params::fail(p.sublist("N-DAM"), "Free surface", "false",
                      "2D subdomains of a coupled channel need the free-surface chute; allowed: "
                      "true");
+      two_d.cfg = ndam::NdamConfig::from_parameters(p.sublist("N-DAM"), user_sub("N-DAM"),
+                                                    channel, ranks);
       two_d.rheology =
           ndam::Rheology::from_parameters(p.sublist("Rheology"), user_sub("Rheology"), material);
       two_d.physics = ndam::NdamPhysics::from(material, channel);

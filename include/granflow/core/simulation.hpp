@@ -97,6 +97,9 @@ class Simulation {
   /// Where the run ended, as summary.json says: before a step the speed limit rejected
   double final_time() const { return rejected_from_ >= 0.0 ? rejected_from_ : model_->time(); }
   long final_steps() const { return model_->steps() - (rejected_from_ >= 0.0 ? 1 : 0); }
+  MassBalance final_mass_balance() const {
+    return rejected_from_ >= 0.0 ? last_good_mass_ : model_->mass_balance();
+  }
   /// Build provenance for summary.json (version, commit, build type, compiler, Trilinos),
   /// given by the application, which is the only target that compiles the generated file.
   void set_build_info(std::map<std::string, std::string> info) { build_info_ = std::move(info); }
@@ -131,6 +134,8 @@ class Simulation {
   /// A step that the speed limit rejected after the model took it: its start time, and the
   /// summary reports the run as ending there (final_time, steps), not after it (-1: none)
   double rejected_from_ = -1.0;
+  double rejected_dt_ = 0.0;
+  MassBalance last_good_mass_;  ///< the mass balance before the latest step (of the last accepted state)
   Speed track_speed();
   Speed track_speed(const Speed& s);  ///< record a speed the caller has measured
   int stop_diverged(const std::string& status, const std::string& headline,

@@ -102,6 +102,12 @@ std::string path(const ParameterList& pl, const std::string& name);
 [[noreturn]] void fail(const ParameterList& pl, const std::string& name, const std::string& value,
                        const std::string& why);
 
+/// fail() for a parameter the scene gives (`user`, the list as written, before the defaults)
+/// where its configuration does not use it; nothing when `user` is null or does not set it.
+/// The value is shown as written: true/false, numbers as str().
+void fail_if_given(const ParameterList& pl, const ParameterList* user, const std::string& name,
+                   const std::string& why);
+
 /// A Trilinos exception's text without its source locations and internal test lines: the
 /// lines that name the parameter, its list and the allowed values, each indented by two spaces.
 std::string trim_teuchos(const std::string& what);
