@@ -175,7 +175,7 @@ granflow_record_test(wall_load_series wall_load.sh)
 
 # coupled model: decomposition checks
 # a 2D subdomain with the default (closed-box, no free surface) N-DAM cannot take the gate inflow
-granflow_cli_test(coupled_2d_without_free_surface 2 "Left boundary->Type' = Inflow.*closed at x = 0.*allowed: Wall"
+granflow_cli_test(coupled_2d_without_free_surface 2 "N-DAM->Free surface' = false: 2D subdomains of a coupled channel need the free-surface chute; allowed: true"
                   ${_cli}/bad_coupled_2d.xml)
 granflow_cli_test(coupled_count_mismatch 2 "Decomposition->Models.*one entry more than 'Interfaces'"
                   ${_cli}/bad_coupled_count.xml)
