@@ -330,7 +330,24 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
       check_initial_material(p, uic, channel, d);
       const bool any_2d = std::find(d.models.begin(), d.models.end(), "2D") != d.models.end();
       // a dynamic layout may create 2D subdomains later: it always configures the 2D model
-      if (!any_2d && !dynamic) return coupling::build(d, material, channel, cfg, init);
+      if (!any_2d && !dynamic) {
+        // A Static layout of 1D subdomains only builds no 2D model: the 2D lists of the scene
+        // would be accepted without effect (a reviewer, 2026-12-05). (An a priori layout that
+        // comes out all 1D is the DAM run's result, not the user's choice: not refused.)
+        if (d.layout == "Static")
+          for (const char* list : {"N-DAM", "Rheology"})
+            if (s.user->isSublist(list) && s.user->sublist(list).numParams() > 0) {
+              const auto& ul = s.user->sublist(list);
+              params::fail(p.sublist(list), ul.begin()->first,
+                           Teuchos::toString(ul.entry(ul.begin()).getAny(false)),
+                           "a setting of the 2D subdomains, and the Static layout " +
+                               Teuchos::toString(p.sublist("Decomposition")
+                                                     .get<Teuchos::Array<std::string>>("Models")) +
+                               " has none; allowed: leave the " + list +
+                               " list out, or a layout with a 2D subdomain");
+            }
+        return coupling::build(d, material, channel, cfg, init);
+      }
       int ranks = 1;
       MPI_Comm_size(comm, &ranks);
       auto user_sub = [&](const char* n) {

@@ -177,6 +177,8 @@ granflow_record_test(wall_load_series wall_load.sh)
 # a 2D subdomain with the default (closed-box, no free surface) N-DAM cannot take the gate inflow
 granflow_cli_test(coupled_2d_without_free_surface 2 "N-DAM->Free surface' = false: 2D subdomains of a coupled channel need the free-surface chute; allowed: true"
                   ${_cli}/bad_coupled_2d.xml)
+granflow_cli_test(split_1d_with_ndam_list 2 "N-DAM->Cells x' = 200: a setting of the 2D subdomains, and the Static layout \\{1D, 1D, 1D\\} has none"
+                  ${_cli}/bad_split_1d_with_ndam.xml)
 granflow_cli_test(coupled_count_mismatch 2 "Decomposition->Models.*one entry more than 'Interfaces'"
                   ${_cli}/bad_coupled_count.xml)
 granflow_cli_test(coupled_bad_kind 2 "Models.*3D" ${_cli}/bad_coupled_kind.xml)
