@@ -432,16 +432,14 @@ int Simulation::stop_diverged(const std::string& status, const std::string& head
 }
 
 // The fastest velocity of the current state against the run's largest so far (every accepted
-// state, from the first one of this run: a restart counts from its checkpoint); returns the
-// current state's.
-Speed Simulation::track_speed() { return track_speed(model_->max_speed()); }
+// state, from the first one of this run: a restart counts from its checkpoint).
+void Simulation::track_speed() { track_speed(model_->max_speed()); }
 
-Speed Simulation::track_speed(const Speed& s) {
+void Simulation::track_speed(const Speed& s) {
   if (s.value > max_speed_.value || max_speed_.quantity.empty()) {
     max_speed_ = s;
     max_speed_t_ = model_->time();
   }
-  return s;
 }
 
 // summary.json's "wall_load": the extremes of the wall.csv series (the whole run, also across

@@ -283,13 +283,14 @@ Scene load(const std::string& file) {
     (void)c;
     // the tanh switch's width belongs to the Savage-Hutter K (an independent run: accepted with
     // 'Earth pressure' = Active, results unchanged)
-    if (s.user->isSublist("DAM") && s.user->sublist("DAM").isParameter("Earth pressure smoothing") &&
+    if (s.user->isSublist("DAM") &&
         user->sublist("DAM").get<std::string>("Earth pressure") != "Savage-Hutter")
-      params::fail(user->sublist("DAM"), "Earth pressure smoothing",
-                   params::str(user->sublist("DAM").get<double>("Earth pressure smoothing")),
-                   "the width of the switch between K_act and K_pas, and 'Earth pressure' = " +
-                       user->sublist("DAM").get<std::string>("Earth pressure") +
-                       " (K fixed); allowed: leave it out, or 'Earth pressure' = Savage-Hutter");
+      params::fail_if_given(user->sublist("DAM"), &s.user->sublist("DAM"),
+                            "Earth pressure smoothing",
+                            "the width of the switch between K_act and K_pas, and 'Earth "
+                            "pressure' = " + user->sublist("DAM").get<std::string>("Earth pressure") +
+                                " (K fixed); allowed: leave it out, or 'Earth pressure' = "
+                                "Savage-Hutter");
     const auto rc =
         core::RunControl::from_parameters(user->sublist("Time"), user->sublist("Output"), s.dir);
     check_output(rc, user->sublist("Output"));
@@ -338,13 +339,13 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
           for (const char* list : {"N-DAM", "Rheology"})
             if (s.user->isSublist(list) && s.user->sublist(list).numParams() > 0) {
               const auto& ul = s.user->sublist(list);
-              params::fail(p.sublist(list), ul.begin()->first,
-                           Teuchos::toString(ul.entry(ul.begin()).getAny(false)),
-                           "a setting of the 2D subdomains, and the Static layout " +
-                               Teuchos::toString(p.sublist("Decomposition")
-                                                     .get<Teuchos::Array<std::string>>("Models")) +
-                               " has none; allowed: leave the " + list +
-                               " list out, or a layout with a 2D subdomain");
+              params::fail_if_given(
+                  p.sublist(list), &ul, ul.name(ul.begin()),
+                  "a setting of the 2D subdomains, and the Static layout " +
+                      Teuchos::toString(
+                          p.sublist("Decomposition").get<Teuchos::Array<std::string>>("Models")) +
+                      " has none; allowed: leave the " + list +
+                      " list out, or a layout with a 2D subdomain");
             }
         return coupling::build(d, material, channel, cfg, init);
       }

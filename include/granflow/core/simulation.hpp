@@ -136,8 +136,8 @@ class Simulation {
   double rejected_from_ = -1.0;
   double rejected_dt_ = 0.0;
   MassBalance last_good_mass_;  ///< the mass balance before the latest step (of the last accepted state)
-  Speed track_speed();
-  Speed track_speed(const Speed& s);  ///< record a speed the caller has measured
+  void track_speed();
+  void track_speed(const Speed& s);  ///< record a speed the caller has measured
   int stop_diverged(const std::string& status, const std::string& headline,
                     const std::string& reason);
   long last_progress_step_ = -1;
