@@ -323,16 +323,15 @@ void NdamSolver::update_friction(const Field& p_yield) {
       // bed carries the full cells' weight, g cos(zeta) (H - h) more than the markers' depth h
       // gives, H the top of the column's highest material cell; then a plug's friction per
       // unit driven mass is tan(delta) g cos(zeta) c(u) at any depth (the paper's full cell
-      // slid 17 % ahead of its law at 4.5 cells on 30/20 deg: an independent run)
-      if (cfg_.full_cell_weight && !col_h_.empty()) {
+      // slid 17 % ahead of its law at 4.5 cells on 30/20 deg: an independent run). The same
+      // weight raises the yield pressure of the column's cells (viscosity.cpp).
+      if (cfg_.full_cell_weight) {
         double extra = 0.0;
         int ne = 0;
         for (int c : {i, ir}) {
           const int gc = gi + (c - i);
           if (!mac_.fluid(gc, 0)) continue;
-          int top = 0;
-          while (top + 1 < nz && mac_.fluid(gc, top + 1)) ++top;
-          extra += std::max(0.0, (top + 1) * dz - column_depth(gc));
+          extra += full_cell_excess(gc);
           ++ne;
         }
         pb += std::abs(phys_.gz) * extra / ne;

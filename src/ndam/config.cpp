@@ -187,8 +187,9 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "whole volume but held by the friction of the true depth, so a layer whose depth "
              "ends inside a cell slides ahead of its friction law (+17 % at 4.5 cells on "
              "30/20 deg) and a thin layer on a slope below delta does not stop. Full cell and "
-             "weight: the same mass, and the bed friction loaded with the weight of the full "
-             "cells, so a plug follows its law at any depth. Material share: the rows of its "
+             "weight: the same mass, and the bed friction and the yield pressure of the "
+             "column's cells loaded with the weight of the full cells, so a plug follows its "
+             "law and a layer below delta rests at any depth. Material share: the rows of its "
              "faces weight mass and non-viscous forces by the share of the cells that holds "
              "material (Implicit momentum only). docs/validation.md, 'The weight of the full "
              "cells'",

@@ -259,6 +259,17 @@ double NdamSolver::column_depth(int gi) const {
   return col_h_[static_cast<std::size_t>(gw)];
 }
 
+double NdamSolver::full_cell_excess(int gi, int* top) const {
+  if (top) *top = -1;
+  if (!cfg_.full_cell_weight || cfg_.surface_mass_share || col_h_.empty() || !mac_.fluid(gi, 0))
+    return 0.0;
+  const int nz = cfg_.grid.nz;
+  int k = 0;
+  while (k + 1 < nz && mac_.fluid(gi, k + 1)) ++k;
+  if (top) *top = k;
+  return std::max(0.0, (k + 1) * cfg_.grid.dz() - column_depth(gi));
+}
+
 double NdamSolver::surface_height(int gi, int k) const {
   if (col_h_.empty() || mac_.gflag(gi, k) != CellFlag::Surface ||
       !(mac_.mask(gi, k) & empty_side::Top))

@@ -24,7 +24,16 @@ void NdamSolver::update_viscosity(const Field& p_yield) {
   auto shear = [&](int i, int k) {
     return (u_(i, k + 1) - u_(i, k)) / dz + (w_(i + 1, k) - w_(i, k)) / dx;
   };
-  for (int i = 0; i < mac_.slab.nx_local; ++i)
+  for (int i = 0; i < mac_.slab.nx_local; ++i) {
+    // 'Surface cell mass' = Full cell and weight: the momentum step drives the column's cells
+    // as full cells, while p is hydrostatic from the markers' depth h below the top H of its
+    // full cells. The yield pressure of the cells that stand on the bed takes the weight of
+    // the full cells, p + g cos(zeta) (H - h), as the bed friction does (boundaries.cpp):
+    // otherwise the partly filled top cell, driven by g sin(zeta) dz, is held by a yield stress
+    // of sin(phi) g cos(zeta) (h - k dz) only and creeps over the cell below (a 20 deg layer
+    // below delta = 22 deg at 1-1.5 cm/s; docs/validation.md, "The weight of the full cells").
+    int top = -1;
+    const double weight = std::abs(phys_.gz) * full_cell_excess(mac_.slab.i0 + i, &top);
     for (int k = 0; k < nz; ++k) {
       if (!mac_.fluid(mac_.slab.i0 + i, k)) continue;
       const double d11 = (u_(i, k) - u_(i - 1, k)) / dx;
@@ -36,9 +45,11 @@ void NdamSolver::update_viscosity(const Field& p_yield) {
       // pressure of eq. (26), the 1D side's pressure at x_IF
       const bool p26 = cfg_.inflow_pressure == InflowPressure::Rheology && mac_.slab.i0 + i == 0 &&
                        !cfg_.periodic_x();
-      nu_(i, k) = rheo_.nu_eff(normD, p26 ? inflow_p26(k) : p_yield(i, k));
+      nu_(i, k) =
+          rheo_.nu_eff(normD, p26 ? inflow_p26(k) : p_yield(i, k) + (k <= top ? weight : 0.0));
       if (cfg_.free_surface) normD_(i, k) = normD;
     }
+  }
   fill_scalar_ghosts(nu_);
   if (has_obstacles_ || cfg_.free_surface) {
     // Obstacle cells enter the corner averages of nu_eff on their surfaces: give them the mean

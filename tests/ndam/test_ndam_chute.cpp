@@ -349,6 +349,52 @@ TEST(NdamCoulomb, PlugOfAnyDepthFollowsTheLawWithTheFullCellsWeight) {
   }
 }
 
+// A layer released at rest on a slope below its bed friction angle stays at rest at any depth
+// with the full cells' weight (20 / 22 / 33 deg, m_c = 1e4 s/m, m_y = 100 s; the periodic box of
+// thin_plug, 2.5 mm cells; 1.5, 4.5 and 9.5 cells deep, to 1 s at CFL 0.5). The momentum step
+// drives the partly filled top cell as a full cell; the option loads the bed and the yield
+// pressure of the column's cells with the full cells' weight (boundaries.cpp, viscosity.cpp).
+// With the weight on the bed alone (session 25) the top cell, held by a yield stress of
+// sin(phi) g cos(zeta) (h - k dz) against a drive of g sin(zeta) dz, crept over the cell below
+// (a gate pulse on 20 deg at 1-1.5 cm/s for seconds, the Setup II corner block at 11.5 mm/s
+// against its 11.4 bound). The creep bound of the regularised laws: the bed's
+// -ln(1 - tan(zeta) / tan(delta)) / m_c = 0.23 mm/s, plus the rheology's shear
+// tan(zeta) / (sin(phi) m_y) = 6.7e-3 1/s over the full cells' height H, at most 0.17 mm/s:
+// u_c = 0.23 mm/s + H tan(zeta) / (sin(phi) m_y). Asserted: |u_mean| < u_c at every output from
+// 0.05 s to 1 s. The paper's Full cell beside it: the 1.5-cell layer, driven by two cells and held
+// by the friction of 1.5, slides off at (tan(zeta) - 0.75 tan(delta)) g cos(zeta) = 0.56 m/s^2
+// (asserted: faster than 0.1 m/s at 1 s).
+TEST(NdamCoulomb, LayerOfAnyDepthBelowDeltaStaysAtRestWithTheFullCellsWeight) {
+  std::vector<double> times;
+  for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
+  const std::array<double, 3> an{20, 22, 33};
+  const double deg = M_PI / 180.0;
+  const double tz = std::tan(an[0] * deg), td = std::tan(an[1] * deg);
+  for (double depth : {0.00375, 0.01125, 0.02375}) {
+    const double H = std::ceil(depth / 0.0025 - 1e-9) * 0.0025;
+    const double u_c = -std::log(1.0 - tz / td) / 1e4 + H * tz / (std::sin(an[2] * deg) * 100.0);
+    for (const char* mass : {"Full cell and weight", "Full cell"}) {
+      const bool weight = std::string(mass) == "Full cell and weight";
+      if (!weight && depth > 0.004) continue;
+      FsCase c = thin_plug(depth, an, 0.5, mass);
+      c.m_c = 1e4;
+      auto s = make_fs(c);
+      const auto u = mean_u_at(*s, times, 0.01);
+      ASSERT_EQ(u.size(), times.size());
+      double worst = 0.0;
+      for (double v : u) worst = std::max(worst, std::abs(v));
+      std::printf("[measured] layer at rest 20/22/33, %.1f cells, %s: |u_mean| at 0.05 / 0.5 / 1 s "
+                  "%.2e / %.2e / %.2e m/s, worst %.2e, creep bound %.2e m/s\n",
+                  depth / 0.0025, mass, std::abs(u[0]), std::abs(u[9]), std::abs(u[19]), worst, u_c);
+      if (weight)
+        for (std::size_t q = 0; q < times.size(); ++q)
+          EXPECT_LT(std::abs(u[q]), u_c) << depth << " m at t = " << times[q];
+      else
+        EXPECT_GT(u[19], 0.1);
+    }
+  }
+}
+
 // The same on the issue's own grid (8 x 24 cells of 1.25 x 2.5 mm), 40/25/35 deg, at CFL 0.5,
 // 0.25, 0.125 (label `long`, about 25 s): u_mean within 1 % of the plug law at every output
 // from 0.05 s to 1 s at each dt, and the error against the law shrinks at every output each

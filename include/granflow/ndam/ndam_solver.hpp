@@ -256,6 +256,12 @@ class NdamSolver final : public core::Stepper {
   double loaded_pressure(int i, int k, double p) const;
   /// The marker depth of global column gi (wrapped when periodic); col_h_ must exist.
   double column_depth(int gi) const;
+  /// 'Surface cell mass' = Full cell and weight: the height of global column gi's full cells
+  /// above its marker depth, H - h with H the top of the material cells that stand on the bed
+  /// without a gap; `top` (if given) gets the highest such cell (-1: the bottom cell is not
+  /// material). 0 for the other options, a column without material on the bed, or before the
+  /// column depths exist.
+  double full_cell_excess(int gi, int* top = nullptr) const;
   void apply_free_surface(Field& u, Field& w) const;
   void advect_markers(double dt);
   /// Flags of markers m and every column's material depth [m] (marker count times marker
