@@ -322,7 +322,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
       // 'Full cell and weight': the momentum step drives every material cell as full, so the
       // bed carries the full cells' weight, g cos(zeta) (H - h) more than the markers' depth h
       // gives, H the top of the column's highest material cell; then a plug's friction per
-      // unit driven mass is tan(delta) g cos(zeta) c(u) at any depth (the paper's full cell
+      // unit driven mass is tan(delta) g cos(zeta) c(u) at depths on a marker row (the full cell
       // slid 17 % ahead of its law at 4.5 cells on 30/20 deg: an independent run). The same
       // weight raises the yield pressure of the column's cells (viscosity.cpp).
       if (cfg_.full_cell_weight) {

@@ -304,14 +304,19 @@ TEST(NdamCoulomb, ThinLayerSlidesByThePlugLawWithTheMaterialShare) {
 
 // A plug whose depth ends inside a cell ('Surface cell mass' = Full cell and weight): the
 // momentum step drives the full cells, and the bed friction now carries their weight, so the
-// plug follows the law of its regularised friction at any depth. Layers of 0.5, 4.5 and 9.5
-// cells (1.25, 11.25 and 23.75 mm in 2.5 mm cells) on 30/20/30 and 40/25/35 deg: u_mean within
+// plug follows the law of its regularised friction at depths that end inside a cell, provided
+// they end on a marker row (a multiple of dz / 4 with 4 x 4 markers per cell). Layers of 0.5,
+// 4.5 and 9.5 cells (1.25, 11.25 and 23.75 mm in 2.5 mm cells) on 30/20/30 and 40/25/35 deg: u_mean within
 // 1 % of the law at every output from 0.05 s to 1 s, at CFL 0.5 and 0.25, the error not growing
 // as dt halves beyond the friction iteration's floor. The paper's Full cell is run for contrast at CFL
 // 0.5 and must be off by more than 3 % at 1 s for the 4.5-cell layer (an independent run
 // measured +17 % on 30/20 deg at 10 mm; it is (H - h) / h of the driven excess, here 0.5 / 4.5
-// of the weight against the net drive), so that the test tells the two apart.
-TEST(NdamCoulomb, PlugOfAnyDepthFollowsTheLawWithTheFullCellsWeight) {
+// of the weight against the net drive), so that the test tells the two apart. Between marker
+// rows the law does not hold (an independent run, session 26: 2.7 cells on 30/20 deg at 5 mm
+// -4.7 % at 1 s, worst -11.8 %; the partial row's markers cannot be spread evenly over the
+// columns, the columns' depths differ by a quarter row, and the surface pressure pulses as those
+// markers cross from column to column; docs/validation.md, "The weight of the full cells").
+TEST(NdamCoulomb, PlugEndingOnAMarkerRowFollowsTheLawWithTheFullCellsWeight) {
   std::vector<double> times;
   for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
   for (const auto& an : {std::array<double, 3>{30, 20, 30}, std::array<double, 3>{40, 25, 35}}) {
@@ -349,8 +354,8 @@ TEST(NdamCoulomb, PlugOfAnyDepthFollowsTheLawWithTheFullCellsWeight) {
   }
 }
 
-// A layer released at rest on a slope below its bed friction angle stays at rest at any depth
-// with the full cells' weight (20 / 22 / 33 deg, m_c = 1e4 s/m, m_y = 100 s; the periodic box of
+// A layer released at rest on a slope below its bed friction angle stays at rest at depths that
+// end inside a cell on a marker row, with the full cells' weight (20 / 22 / 33 deg, m_c = 1e4 s/m, m_y = 100 s; the periodic box of
 // thin_plug, 2.5 mm cells; 1.5, 4.5 and 9.5 cells deep, to 1 s at CFL 0.5). The momentum step
 // drives the partly filled top cell as a full cell; the option loads the bed and the yield
 // pressure of the column's cells with the full cells' weight (boundaries.cpp, viscosity.cpp).
@@ -364,7 +369,7 @@ TEST(NdamCoulomb, PlugOfAnyDepthFollowsTheLawWithTheFullCellsWeight) {
 // 0.05 s to 1 s. The paper's Full cell beside it: the 1.5-cell layer, driven by two cells and held
 // by the friction of 1.5, slides off at (tan(zeta) - 0.75 tan(delta)) g cos(zeta) = 0.56 m/s^2
 // (asserted: faster than 0.1 m/s at 1 s).
-TEST(NdamCoulomb, LayerOfAnyDepthBelowDeltaStaysAtRestWithTheFullCellsWeight) {
+TEST(NdamCoulomb, LayerEndingOnAMarkerRowRestsBelowDeltaWithTheFullCellsWeight) {
   std::vector<double> times;
   for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
   const std::array<double, 3> an{20, 22, 33};
