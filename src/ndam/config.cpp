@@ -189,9 +189,10 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "30/20 deg) and a thin layer on a slope below delta does not stop. Full cell and "
              "weight: the same mass, and the bed friction and the yield pressure of the "
              "column's cells loaded with the weight of the full cells, so a plug follows its "
-             "law and a layer below delta rests where its depth ends on a marker row (between "
-             "rows the columns' depths differ by part of a row and the pressure pulses as "
-             "markers cross columns). Material share: the rows of its "
+             "law (within 0.1 % where the depth ends on a marker row, about 2 % between rows, "
+             "where the columns' marker counts differ; the depth shares each marker between "
+             "its two nearest columns) and a layer below delta rests. Material share: the "
+             "rows of its "
              "faces weight mass and non-viscous forces by the share of the cells that holds "
              "material (Implicit momentum only). docs/validation.md, 'The weight of the full "
              "cells'",

@@ -106,8 +106,8 @@ struct NdamConfig {
   /// 'Surface cell mass' = Full cell and weight: every cell a full cell, and the Coulomb bed
   /// friction loaded with the weight of the full cells of its columns (the empty part of a
   /// column's top material cell added to the markers' depth), as the momentum step drives
-  /// them: a plug then follows its friction law at depths on a marker row (boundaries.cpp,
-  /// update_friction; the yield pressure in viscosity.cpp)
+  /// them: a plug then follows its friction law at any depth (boundaries.cpp,
+  /// update_friction; the yield pressure in viscosity.cpp; the shared column depth col_hs_)
   bool full_cell_weight = false;
   /// 'Surface pressure' = Ghost fluid: Surface cells whose centre lies below the free surface
   /// are pressure unknowns, with p = 0 imposed at the surface's position on the faces to their

@@ -254,7 +254,9 @@ class NdamSolver final : public core::Stepper {
   /// under material (its top side not empty, the cell above a material cell) the hydrostatic
   /// pressure of the column's material above its centre, if that is larger.
   double loaded_pressure(int i, int k, double p) const;
-  /// The marker depth of global column gi (wrapped when periodic); col_h_ must exist.
+  /// The marker depth of global column gi (wrapped when periodic) that the free surface's
+  /// pressure, the loaded bed and the full cells' weight take: col_h_, or col_hs_ with
+  /// 'Full cell and weight'; col_h_ must exist.
   double column_depth(int gi) const;
   /// 'Surface cell mass' = Full cell and weight: the height of global column gi's full cells
   /// above its marker depth, H - h with H the top of the material cells that stand on the bed
@@ -361,6 +363,10 @@ class NdamSolver final : public core::Stepper {
   MarkerMass marker_mass_, marker_mass_new_;  // of the current / tentative markers
   double mass0_ = 0.0;
   std::vector<double> col_h_, col_u_, col_w_;  // column states of the whole box (every rank)
+  // 'Full cell and weight': the columns' depths with every marker shared between the two
+  // columns nearest to it (cloud in cell), the depth the surface pressure and the weight take
+  // (column_depth); empty otherwise (column_depth then takes col_h_)
+  std::vector<double> col_hs_;
   Transfer transfer_;
   bool flags_changed_ = true;
   bool has_obstacles_ = false;
