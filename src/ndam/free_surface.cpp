@@ -422,9 +422,9 @@ void NdamSolver::update_profile_cache(bool flag_depths) {
     // the surface (a pile's toe, a front), which the sharing would smooth and so move
     const double row = cfg_.grid.dz() / cfg_.markers_per_cell;
     auto has = [&](int own, int gi) {
-      return gi >= 0 && gi < nx && col_h_[static_cast<std::size_t>(gi)] > 0.0 &&
-             std::abs(col_h_[static_cast<std::size_t>(gi)] - col_h_[static_cast<std::size_t>(own)]) <=
-                 row * (1.0 + 1e-9);
+      if (gi < 0 || gi >= nx) return false;
+      const double h = col_h_[static_cast<std::size_t>(gi)];
+      return h > 0.0 && std::abs(h - col_h_[static_cast<std::size_t>(own)]) <= row * (1.0 + 1e-9);
     };
     for (const auto& m : markers_->markers()) {
       const int own = std::clamp(static_cast<int>(std::floor(m.x / dx)), 0, nx - 1);

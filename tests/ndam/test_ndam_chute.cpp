@@ -354,8 +354,18 @@ TEST(NdamCoulomb, PlugEndingOnAMarkerRowFollowsTheLawWithTheFullCellsWeight) {
   }
 }
 
+// The creep bound of a layer at rest on `an` = slope / delta / phi [deg] with the regularised
+// laws (m_c [s/m], m_y = 100 s): the bed's -ln(1 - tan(zeta) / tan(delta)) / m_c plus the
+// rheology's shear tan(zeta) / (sin(phi) m_y) over the full cells' height H.
+double rest_creep_bound(const std::array<double, 3>& an, double m_c, double H) {
+  const double deg = M_PI / 180.0;
+  const double tz = std::tan(an[0] * deg), td = std::tan(an[1] * deg);
+  return -std::log(1.0 - tz / td) / m_c + H * tz / (std::sin(an[2] * deg) * 100.0);
+}
+
 // A layer released at rest on a slope below its bed friction angle stays at rest at depths that
-// end inside a cell on a marker row, with the full cells' weight (20 / 22 / 33 deg, m_c = 1e4 s/m, m_y = 100 s; the periodic box of
+// end inside a cell on a marker row, with the full cells' weight (20 / 22 / 33 deg, m_c = 1e4
+// s/m, m_y = 100 s; the periodic box of
 // thin_plug, 2.5 mm cells; 1.5, 4.5 and 9.5 cells deep, to 1 s at CFL 0.5). The momentum step
 // drives the partly filled top cell as a full cell; the option loads the bed and the yield
 // pressure of the column's cells with the full cells' weight (boundaries.cpp, viscosity.cpp).
@@ -373,11 +383,9 @@ TEST(NdamCoulomb, LayerEndingOnAMarkerRowRestsBelowDeltaWithTheFullCellsWeight) 
   std::vector<double> times;
   for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
   const std::array<double, 3> an{20, 22, 33};
-  const double deg = M_PI / 180.0;
-  const double tz = std::tan(an[0] * deg), td = std::tan(an[1] * deg);
   for (double depth : {0.00375, 0.01125, 0.02375}) {
     const double H = std::ceil(depth / 0.0025 - 1e-9) * 0.0025;
-    const double u_c = -std::log(1.0 - tz / td) / 1e4 + H * tz / (std::sin(an[2] * deg) * 100.0);
+    const double u_c = rest_creep_bound(an, 1e4, H);
     for (const char* mass : {"Full cell and weight", "Full cell"}) {
       const bool weight = std::string(mass) == "Full cell and weight";
       if (!weight && depth > 0.004) continue;
@@ -390,7 +398,8 @@ TEST(NdamCoulomb, LayerEndingOnAMarkerRowRestsBelowDeltaWithTheFullCellsWeight) 
       for (double v : u) worst = std::max(worst, std::abs(v));
       std::printf("[measured] layer at rest 20/22/33, %.1f cells, %s: |u_mean| at 0.05 / 0.5 / 1 s "
                   "%.2e / %.2e / %.2e m/s, worst %.2e, creep bound %.2e m/s\n",
-                  depth / 0.0025, mass, std::abs(u[0]), std::abs(u[9]), std::abs(u[19]), worst, u_c);
+                  depth / 0.0025, mass, std::abs(u[0]), std::abs(u[9]), std::abs(u[19]), worst,
+                  u_c);
       if (weight)
         for (std::size_t q = 0; q < times.size(); ++q)
           EXPECT_LT(std::abs(u[q]), u_c) << depth << " m at t = " << times[q];
@@ -432,13 +441,11 @@ TEST(NdamCoulomb, LayerBetweenMarkerRowsFollowsTheLawWithTheFullCellsWeight) {
     }
   }
   const std::array<double, 3> an{20, 22, 33};
-  const double deg = M_PI / 180.0;
-  const double tz = std::tan(an[0] * deg), td = std::tan(an[1] * deg);
   std::vector<double> t4;
   for (int q = 1; q <= 40; ++q) t4.push_back(0.1 * q);
   for (double cells : {2.7, 4.3}) {
     const double H = std::ceil(cells - 1e-9) * 0.0025;
-    const double u_c = -std::log(1.0 - tz / td) / 1e4 + H * tz / (std::sin(an[2] * deg) * 100.0);
+    const double u_c = rest_creep_bound(an, 1e4, H);
     FsCase c = thin_plug(cells * 0.0025, an, 0.5, "Full cell and weight");
     c.m_c = 1e4;
     auto s = make_fs(c);
