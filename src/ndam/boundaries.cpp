@@ -303,6 +303,14 @@ void NdamSolver::update_friction(const Field& p_yield) {
   bed_q_.assign(nb, 0.0);
   bed_n_.assign(nb, 0.0);
   bed_stuck_.assign(nb, 0);
+  // every column's surface traction (surface_traction_at_bed), for the filter through the depth
+  std::vector<double> surf_t;
+  if (cfg_.walls[2].kind == WallKind::Coulomb && cfg_.free_surface &&
+      cfg_.momentum != Momentum::Explicit && !col_h_.empty()) {
+    std::vector<double> local(static_cast<std::size_t>(nxl));
+    for (int i = 0; i < nxl; ++i) local[static_cast<std::size_t>(i)] = surface_traction_at_bed(i);
+    surf_t = mac_.gather_columns(local);
+  }
   if (cfg_.walls[2].kind == WallKind::Coulomb)
     for (int i = -G; i < nxl + G; ++i) {
       const int gi = mac_.slab.i0 + i;
@@ -336,6 +344,9 @@ void NdamSolver::update_friction(const Field& p_yield) {
         }
         pb += std::abs(phys_.gz) * extra / ne;
       }
+      // The implicit scheme's surface p = 0 leaves the viscous normal stress of the surface out
+      // of p (free_surface.cpp): the bed does not carry that traction (surface_traction_at_bed).
+      if (!surf_t.empty()) pb -= bed_surface_traction(gi, surf_t);
       const double nub = 0.5 * (nu_(i, 0) + nu_(ir, 0));
       const double dudx = (u_(ir, 0) - u_(il, 0)) / ((ir - il) * dx);
       const double N = std::max(0.0, pb + 2.0 * nub * dudx);

