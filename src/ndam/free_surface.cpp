@@ -243,8 +243,9 @@ void NdamSolver::surface_pressure(Field& target) const {
 // 2 nu u_x = 22 % of the weight, the friction with it, and the flow's gain of u^2 / 2 along
 // the chute 4 % below the plug law, 6 % at 1.25 mm, where nu -> 0 gave 3 % above it (the
 // scheme's own error, first order in dx; docs/validation.md, "The surface's normal stress and
-// the bed"). The bed takes it back here; the projection keeps p_s = 0 (stable). The traction is that of the explicit scheme's
-// Dirichlet value, with the surface's nu_s, not the cell's own nu_eff: the latter adds the
+// the bed"). The bed takes it back here; the projection keeps p_s = 0 (stable). The traction
+// is that of the explicit scheme's Dirichlet value, with the surface's nu_s, not the cell's own
+// nu_eff: the latter adds the
 // top cell's plastic stress, sin(phi) times a pressure of at most g cos(zeta) dz / 2, which
 // the continuum's surface does not have (measured: 1.4 points further from the plug law at
 // 2.5 mm). Returns the traction for a column whose contiguous material stack from the bed
@@ -278,9 +279,9 @@ double NdamSolver::surface_traction_at_bed(int i) const {
 // sech(pi x / (2 h)) / (2 h). So only its slow part reaches the bed: where the top cells'
 // traction varies over a cell or two (a shock or an impact at a wall, where 2 nu |u_x| reaches
 // three times the weight of a 0.1 m deposit at 10 mm) the deposit's bed hardly feels it, while
-// along a chute the traction varies over many depths and arrives whole. The discrete form: the kernel at the
-// centres of the material columns within 4 h (sech(2 pi) = 0.004), normalised over them, with
-// h the depth at the face (the mean of its two columns' marker depths).
+// along a chute the traction varies over many depths and arrives whole. The discrete form: the
+// kernel at the centres of the material columns within 4 h (sech(2 pi) = 0.004), normalised
+// over them, with h the depth at the face (the mean of its two columns' marker depths).
 double NdamSolver::bed_surface_traction(int gi, const std::vector<double>& t) const {
   const int nx = cfg_.grid.nx;
   const bool per = cfg_.periodic_x();
