@@ -253,10 +253,8 @@ void NdamSolver::surface_pressure(Field& target) const {
 // explicit scheme.
 double NdamSolver::surface_traction_at_bed(int i) const {
   if (!cfg_.free_surface || cfg_.momentum == Momentum::Explicit) return 0.0;
-  const int gi = mac_.slab.i0 + i, nz = cfg_.grid.nz;
-  if (!mac_.fluid(gi, 0)) return 0.0;
-  int k = 0;
-  while (k + 1 < nz && mac_.fluid(gi, k + 1)) ++k;
+  const int gi = mac_.slab.i0 + i, k = bed_stack_top(gi);
+  if (k < 0) return 0.0;
   if (mac_.gflag(gi, k) != CellFlag::Surface || !(mac_.mask(gi, k) & empty_side::Top)) return 0.0;
   // Only a surface that extends (w_z < 0: the load p = 0 adds), and at most the column's
   // weight. The derivation is the quasi-steady vertical balance of a shallow layer; where the
@@ -298,6 +296,12 @@ double NdamSolver::bed_surface_traction(int gi, const std::vector<double>& t) co
   const double dx = cfg_.grid.dx();
   h = std::max(h / nh, 0.5 * dx);
   const int reach = static_cast<int>(std::ceil(4.0 * h / dx)) + 1;
+  // no traction within reach (most faces of a deposit, whose surface does not extend): 0,
+  // without the kernel's cosh per column over 4 h
+  bool any = false;
+  for (int g = gi + 1 - reach; g <= gi + reach && !any; ++g)
+    any = inside(g) && t[static_cast<std::size_t>(wrap(g))] != 0.0;
+  if (!any) return 0.0;
   double sum = 0.0, wsum = 0.0;
   for (int g = gi + 1 - reach; g <= gi + reach; ++g) {
     if (!inside(g) || !mac_.fluid(g, 0)) continue;
@@ -338,13 +342,18 @@ double NdamSolver::column_depth(int gi) const {
   return (col_hs_.empty() ? col_h_ : col_hs_)[static_cast<std::size_t>(gw)];
 }
 
+int NdamSolver::bed_stack_top(int gi) const {
+  if (!mac_.fluid(gi, 0)) return -1;
+  int k = 0;
+  while (k + 1 < cfg_.grid.nz && mac_.fluid(gi, k + 1)) ++k;
+  return k;
+}
+
 double NdamSolver::full_cell_excess(int gi, int* top) const {
   if (top) *top = -1;
   if (!cfg_.full_cell_weight || cfg_.surface_mass_share || col_h_.empty() || !mac_.fluid(gi, 0))
     return 0.0;
-  const int nz = cfg_.grid.nz;
-  int k = 0;
-  while (k + 1 < nz && mac_.fluid(gi, k + 1)) ++k;
+  const int k = bed_stack_top(gi);
   if (top) *top = k;
   return std::max(0.0, (k + 1) * cfg_.grid.dz() - column_depth(gi));
 }

@@ -273,6 +273,9 @@ class NdamSolver final : public core::Stepper {
   /// material). 0 for the other options, a column without material on the bed, or before the
   /// column depths exist.
   double full_cell_excess(int gi, int* top = nullptr) const;
+  /// The highest cell of global column gi's material stack standing on the bed without a gap;
+  /// -1 when the bottom cell is not material.
+  int bed_stack_top(int gi) const;
   void apply_free_surface(Field& u, Field& w) const;
   void advect_markers(double dt);
   /// Flags of markers m and every column's material depth [m] (marker count times marker
