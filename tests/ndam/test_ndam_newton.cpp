@@ -323,16 +323,19 @@ TEST(NdamPressureNewton, AndersonFallbackTakesOnAStalledStep) {
 // (no output times), the depth within 6.0 mm of the lagged run at 0.625 ... 0.75 s and the
 // p_foot and normal-force means over [0.65, 0.75] within 0.5 %. The depth within 8 mm: two runs
 // that differ only in where the gate injects its markers differ by 5-6 % in h
-// (docs/validation.md), 8 mm of the 0.13 m deposit; the means within 5 % as above; at most 6
-// iterations in any step, so that a solve that only converges near the limit (a cycling clamp
-// that happens to settle) is caught too.
+// (docs/validation.md), 8 mm of the 0.13 m deposit; the means within 5 % as above; at most 8
+// iterations in any step, two below the limit, so that a solve that only converges near the
+// limit (a cycling clamp that happens to settle) is caught too. (6 until 2026-12-06: since the
+// bed's surface traction is filtered signed, one step of 591 takes 7, its residual falling
+// monotonically 1.3e-3, 9.9e-5, 4.1e-5, 3.4e-5, 2.3e-5, 1.6e-5, 1.5e-5, 4.1e-7: slow, not
+// cycling; the next most took at most 4. A cycling clamp runs to the limit of 10.)
 TEST(NdamPressureNewton, SetupIIDepositConvergesAt5mm) {
   const auto lag = setup2_pair::run(200, 30, 0.75, false);
   const auto nl = setup2_pair::run(200, 30, 0.75, true);
   setup2_pair::expect_pair_agrees(lag, nl, 0.75, {0.625, 0.65, 0.675, 0.7, 0.725, 0.75}, 0.008,
                                   {0.65}, 0.1);
   if (HasFatalFailure()) return;
-  EXPECT_LE(nl.stats["newton"]["newton_iterations_max"].get<int>(), 6);
+  EXPECT_LE(nl.stats["newton"]["newton_iterations_max"].get<int>(), 8);
   // The later evaluations of a step start the friction Newton from the first evaluation's
   // solution (update_friction): one momentum solve each where the tangent at u^n took two.
   // Measured: 1.32 momentum solves per evaluation, 2.01 (4523 for 2247) when every evaluation

@@ -249,11 +249,13 @@ class NdamSolver final : public core::Stepper {
   /// 2 nu_s n.D.n of Surface cell (i, k) (NaSt2D's normal-stress condition, lagged); 0 otherwise.
   double surface_viscous_stress(int i, int k) const;
   /// The normal traction that p = 0 at the surface (implicit scheme) puts on local column i's
-  /// top and so on its bed: minus the top Surface cell's surface_viscous_stress where that
-  /// surface extends, at most the column's weight; 0 otherwise.
+  /// top and so on its bed: minus the top Surface cell's surface_viscous_stress, signed
+  /// (positive where the surface extends), limited to the column's weight either way; 0
+  /// without such a surface.
   double surface_traction_at_bed(int i) const;
   /// The surface tractions t (one per global column) as the bed face right of global column gi
-  /// carries them: filtered through the layer's depth (1 / cosh(k h)).
+  /// carries them: filtered through the layer's depth (1 / cosh(k h)), then only the unloading
+  /// part, at most the face's weight.
   double bed_surface_traction(int gi, const std::vector<double>& t) const;
   /// The free surface inside global cell (gi, k) (wrapped when periodic): the column's marker
   /// depth clamped into [k dz, (k + 1) dz] for a Surface cell whose top side is empty; -1 for
