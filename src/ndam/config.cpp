@@ -136,6 +136,17 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
                "explicit surface's stability: a wave Courant number of 1 woke resting "
                "deposits)",
                1e-4, 1.0);
+    add_double(*pl, "Viscous surface number", d.viscous_surface_number,
+               "K of the time-step limit dt <= K min(dx, dz)^2 / nu of the implicit momentum "
+               "step with a free surface (nu the Newtonian 'Rheology->Viscosity'; 0: no such "
+               "limit). The viscous stress is implicit, but the free surface's velocity "
+               "conditions (the faces towards Empty cells) are set from the last iterate, and "
+               "at large nu dt / dx^2 that explicit part amplified: Setup II with nu = 0.3 "
+               "m^2/s at 5 mm diverged at nu dt / dx^2 = 36-48 (surface cells at 20-40 m/s "
+               "behind the gate) and held at 30 at six output intervals; nu = 0.1-1 at 2.5 and 5 "
+               "mm, to 2.5 s, held at 20 (docs/validation.md, 'A viscous step limit for the "
+               "free surface'). At the default viscosity (0.003) it never binds",
+               0.0, 1e6);
     add_double(*pl, "Donor-cell weight", d.gamma,
                "gamma: blend of the convective terms between central differences (0) and "
                "donor-cell upwinding (1), NaSt2D's form; stability needs gamma >= "
@@ -315,6 +326,7 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
   c.momentum = pl.get<std::string>("Momentum") == "Explicit" ? Momentum::Explicit
                                                              : Momentum::Implicit;
   c.cfl = pl.get<double>("CFL");
+  c.viscous_surface_number = pl.get<double>("Viscous surface number");
   c.surface_mass_share = pl.get<std::string>("Surface cell mass") == "Material share";
   c.full_cell_weight = pl.get<std::string>("Surface cell mass") == "Full cell and weight";
   if (c.surface_mass_share && c.momentum == Momentum::Explicit)

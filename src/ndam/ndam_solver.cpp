@@ -338,6 +338,15 @@ double NdamSolver::stable_dt() const {
     cand(dx / c * std::min(1.0, kMaxWaveCourant / cfg_.cfl),
          "surface gravity waves, dx / sqrt(g cos(zeta) h)");
   dt *= cfg_.cfl;
+  // The free surface's viscous limit (implicit momentum): the viscous stress is implicit, but
+  // the velocity conditions of the Surface cells' faces towards Empty cells are set from the
+  // last iterate, an explicit part of the viscous operator; at large nu dt / h^2 it amplified
+  // (nu = 0.3 m^2/s, 5 mm: notches and pillars of single surface cells behind the gate, 20-40
+  // m/s, at nu dt / h^2 = 36-48; held at 30). Not scaled by the CFL number: it is the scheme's
+  // limit, not the flow's. With the default viscosity (0.003) K h^2 / nu = 0.17 s at 5 mm.
+  if (cfg_.momentum == Momentum::Implicit && cfg_.free_surface && cfg_.viscous_surface_number > 0.0 &&
+      rheo_.nu > 0.0)
+    cand(viscous_surface_dt(), "free-surface viscous limit, K min(dx, dz)^2 / nu");
   // Implicit and Newtonian: the dt of the assembled momentum matrix is held (kDtHoldFraction).
   if (cfg_.momentum == Momentum::Implicit && rheo_.newtonian() && momentum_dt_ > 0.0 &&
       momentum_dt_ <= dt && momentum_dt_ >= kDtHoldFraction * dt) {
@@ -345,6 +354,11 @@ double NdamSolver::stable_dt() const {
     dt_cause_ = "held momentum matrix dt";
   }
   return dt;
+}
+
+double NdamSolver::viscous_surface_dt() const {
+  const double h = std::min(cfg_.grid.dx(), cfg_.grid.dz());
+  return cfg_.viscous_surface_number * h * h / rheo_.nu;
 }
 
 // The condition behind stable_dt() and its place, for the diagnosis of a collapsed step: the
@@ -392,10 +406,18 @@ std::string NdamSolver::dt_limit() const {
   const double dt_fr = expl && fr.v > 0.0 ? 1.0 / fr.v : inf;
   const double dt_gw = gw.v > 0.0 ? dx / gw.v : inf;
   const double dt_start = cfg_.momentum == Momentum::Implicit && friction_dt_ > 0.0 ? friction_dt_ : inf;
+  // (the free surface's viscous limit is not scaled by the CFL number: compared as CFL-scaled)
+  const double dt_vs = cfg_.momentum == Momentum::Implicit && cfg_.free_surface &&
+                               cfg_.viscous_surface_number > 0.0 && rheo_.nu > 0.0
+                           ? viscous_surface_dt() / cfg_.cfl
+                           : inf;
   std::ostringstream os;
-  const double m = std::min({dt_u, dt_w, dt_nu, dt_fr, dt_gw, dt_start});
+  const double m = std::min({dt_u, dt_w, dt_nu, dt_fr, dt_gw, dt_start, dt_vs});
   if (!std::isfinite(m)) return "no velocity and no viscous limit (the material at rest)";
-  if (m == dt_start)
+  if (m == dt_vs)
+    os << "the free surface's viscous limit K min(dx, dz)^2 / nu: K = "
+       << cfg_.viscous_surface_number << ", nu = " << rheo_.nu << " m^2/s";
+  else if (m == dt_start)
     os << "the Coulomb friction start-up (the friction factor of a base starting to slide grows "
           "by at most CFL per step): it would grow by 1 in " << dt_start << " s";
   else if (m == dt_gw)

@@ -67,6 +67,9 @@ struct NdamConfig {
   Grid grid{64, 32, 1.0, 0.15};  ///< lx: the Channel's length (from_parameters)
   Momentum momentum = Momentum::Implicit;
   double cfl = 0.5;
+  /// 'Viscous surface number' K: with the implicit momentum step and a free surface,
+  /// dt <= K min(dx, dz)^2 / nu (nu the Newtonian viscosity); 0: no such limit.
+  double viscous_surface_number = 20.0;
   double gamma = 0.5;  ///< donor-cell weight of the convective terms (0: central, 1: upwind)
   /// By Side: no-slip walls, free-slip top (the lid of a box that holds a free surface).
   std::array<Wall, 4> walls{Wall{}, Wall{}, Wall{}, Wall{WallKind::FreeSlip, 0.0}};

@@ -252,6 +252,8 @@ class NdamSolver final : public core::Stepper {
   /// top and so on its bed: minus the top Surface cell's surface_viscous_stress, signed
   /// (positive where the surface extends), limited to the column's weight either way; 0
   /// without such a surface.
+  /// The free surface's viscous step limit K min(dx, dz)^2 / nu ('Viscous surface number').
+  double viscous_surface_dt() const;
   double surface_traction_at_bed(int i) const;
   /// The surface tractions t (one per global column) as the bed face right of global column gi
   /// carries them: filtered through the layer's depth (1 / cosh(k h)), then only the unloading
