@@ -115,6 +115,14 @@ CASES = [
     # 0.59-0.77 m/s at six output intervals; 457 steps here (199 before)
     case("ndam_nu_0.3_share", "setup2_ndam",
          {"Rheology/Viscosity": 0.3, "N-DAM/Surface cell mass": "Material share"}, default=True),
+] + [
+    # ... and at the output intervals where the forms before the step limit diverged (0.04,
+    # 0.025 s: session 27's bed traction; 0.05 s, the scene's: session 28's before the limit)
+    case(f"ndam_nu_0.3_share_out_{iv}", "setup2_ndam",
+         {"Rheology/Viscosity": 0.3, "N-DAM/Surface cell mass": "Material share",
+          "Output/Interval": iv}, default=True)
+    for iv in (0.04, 0.025)
+] + [
     # the tester's long nu = 0.3 run (to 2.5 s: the deposit at the wall under a viscous layer),
     # which diverged at 1.245 s (114 m/s) before the viscous step limit; about 1500 steps, 50 s
     case("ndam_nu_0.3_long", "setup2_ndam", {"Rheology/Viscosity": 0.3, "Time/End time": 2.5}),
