@@ -475,7 +475,12 @@ TEST(NdamCoulomb, LayerBetweenMarkerRowsFollowsTheLawWithTheFullCellsWeight) {
 // du_eq / (dN / N) = tan(zeta) / (tan(delta) - tan(zeta)) / m_c = 0.18 m/s, so 1 % of N is 6 %
 // of u_eq. Asserted at every output (0.1 s apart):
 // - 2.25 cells (on a marker row), Material share and Full cell and weight, to 3 s: u_mean
-//   within 2 % of the law (N within 0.3 %); measured at most 0.4 % (at 0.1 s), every case;
+//   within 2 % of the law (N within 0.3 %); measured at most 0.4 % (at 0.1 s), every case; the
+//   same for 4 whole cells on 25/26/33 deg (measured 0.5 %). Not asserted because it fails: 2
+//   whole cells with the two options at nu = 0.03 (Full cell and weight +10 %, Material share
+//   2-3 times the law by 3 s): the bed takes only the unloading part of the filtered traction,
+//   which rectifies slow waves along such a layer (docs/validation.md, session 28's
+//   independent run; open);
 // - 2 whole cells, the paper's Full cell, to 1 s: within 25 % (N within 4 %); measured +18 % at
 //   1 s with nu = 0.03, +4.9 % with 0.003. With Full cell a marker that crosses into the empty
 //   row above makes a cell driven by gravity over its whole volume (the option's known excess,
@@ -484,14 +489,22 @@ TEST(NdamCoulomb, LayerBetweenMarkerRowsFollowsTheLawWithTheFullCellsWeight) {
 // (The Full cell layer of 2.25 cells is no case: driven by 3 cells and held by 2.25 it slides
 // off at 0.74 m/s^2, as the tests above state.)
 TEST(NdamCoulomb, ViscousLayerAtItsFrictionLimitCreepsAtTheLawsSpeed) {
-  const std::array<double, 3> an{21, 22, 33};
   const double deg = M_PI / 180.0;
-  const double u_eq = -std::log(1.0 - std::tan(an[0] * deg) / std::tan(an[1] * deg)) / 100.0;
-  struct Layer { double depth; const char* mass; double end, tol; };
-  for (const Layer& l : {Layer{0.01, "Full cell", 1.0, 0.25},
-                         Layer{0.01125, "Material share", 3.0, 0.02},
-                         Layer{0.01125, "Full cell and weight", 3.0, 0.02}})
+  struct Layer {
+    std::array<double, 3> an;
+    double depth;
+    const char* mass;
+    double end, tol;
+  };
+  const std::array<double, 3> a21{21, 22, 33}, a25{25, 26, 33};
+  for (const Layer& l : {Layer{a21, 0.01, "Full cell", 1.0, 0.25},
+                         Layer{a21, 0.01125, "Material share", 3.0, 0.02},
+                         Layer{a21, 0.01125, "Full cell and weight", 3.0, 0.02},
+                         Layer{a25, 0.02, "Material share", 3.0, 0.02},
+                         Layer{a25, 0.02, "Full cell and weight", 3.0, 0.02}})
     for (double nu : {0.03, 0.003}) {
+      const auto& an = l.an;
+      const double u_eq = -std::log(1.0 - std::tan(an[0] * deg) / std::tan(an[1] * deg)) / 100.0;
       std::vector<double> times;
       for (int q = 1; q <= static_cast<int>(std::lround(l.end / 0.1)); ++q) times.push_back(0.1 * q);
       const auto law = plug_law(an[0], an[1], 100.0, times);
@@ -513,14 +526,15 @@ TEST(NdamCoulomb, ViscousLayerAtItsFrictionLimitCreepsAtTheLawsSpeed) {
       for (std::size_t q = 0; q < times.size(); ++q) {
         const double e = u[q] / law[q] - 1.0;
         if (std::abs(e) > std::abs(worst)) worst = e;
-        EXPECT_LT(std::abs(e), l.tol) << l.mass << ", nu = " << nu << ", t = " << times[q]
-                                     << ": u_mean " << u[q] << " against the law's " << law[q];
+        EXPECT_LT(std::abs(e), l.tol) << an[0] << "/" << an[1] << ", " << l.mass << ", nu = "
+                                     << nu << ", t = " << times[q] << ": u_mean " << u[q]
+                                     << " against the law's " << law[q];
       }
-      std::printf("[measured] layer at its limit 21/22/33, %.2f cells (%s), nu = %g: u_mean at "
+      std::printf("[measured] layer at its limit %g/%g/%g, %.2f cells (%s), nu = %g: u_mean at "
                   "0.1 / 1 / %g s %.4f / %.4f / %.4f m/s (law %.4f / %.4f / %.4f, u_eq %.4f), "
                   "worst %+.1f %%\n",
-                  l.depth / 0.005, l.mass, nu, l.end, u[0], u[9], u.back(), law[0], law[9],
-                  law.back(), u_eq, 100 * worst);
+                  an[0], an[1], an[2], l.depth / 0.005, l.mass, nu, l.end, u[0], u[9], u.back(),
+                  law[0], law[9], law.back(), u_eq, 100 * worst);
     }
 }
 
