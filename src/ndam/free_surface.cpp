@@ -247,9 +247,9 @@ void NdamSolver::surface_pressure(Field& target) const {
 // is that of the explicit scheme's Dirichlet value, with the surface's nu_s, not the cell's own
 // nu_eff: the latter adds the top cell's plastic stress, sin(phi) times a pressure of at most
 // g cos(zeta) dz / 2, which the continuum's surface does not have (measured: 1.4 points
-// further from the plug law at 2.5 mm). Returns the traction for a column whose contiguous material stack from the bed
-// ends in a Surface cell with an empty top; 0 otherwise, without a free surface, or with the
-// explicit scheme.
+// further from the plug law at 2.5 mm). Returns the traction for a column whose contiguous
+// material stack from the bed ends in a Surface cell with an empty top; 0 otherwise, without a
+// free surface, or with the explicit scheme.
 double NdamSolver::surface_traction_at_bed(int i) const {
   if (!cfg_.free_surface || cfg_.momentum == Momentum::Explicit) return 0.0;
   const int gi = mac_.slab.i0 + i, k = bed_stack_top(gi);

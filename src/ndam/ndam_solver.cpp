@@ -344,8 +344,8 @@ double NdamSolver::stable_dt() const {
   // (nu = 0.3 m^2/s, 5 mm: notches and pillars of single surface cells behind the gate, 20-40
   // m/s, at nu dt / h^2 = 36-48; held at 30). Not scaled by the CFL number: it is the scheme's
   // limit, not the flow's. With the default viscosity (0.003) K h^2 / nu = 0.17 s at 5 mm.
-  if (cfg_.momentum == Momentum::Implicit && cfg_.free_surface && cfg_.viscous_surface_number > 0.0 &&
-      rheo_.nu > 0.0)
+  if (cfg_.momentum == Momentum::Implicit && cfg_.free_surface &&
+      cfg_.viscous_surface_number > 0.0 && rheo_.nu > 0.0)
     cand(viscous_surface_dt(), "free-surface viscous limit, K min(dx, dz)^2 / nu");
   // Implicit and Newtonian: the dt of the assembled momentum matrix is held (kDtHoldFraction).
   if (cfg_.momentum == Momentum::Implicit && rheo_.newtonian() && momentum_dt_ > 0.0 &&
@@ -362,8 +362,9 @@ double NdamSolver::viscous_surface_dt() const {
 }
 
 // The condition behind stable_dt() and its place, for the diagnosis of a collapsed step: the
-// candidates of stable_dt (advective u and w, the surface waves of the deepest column, and for
-// the explicit scheme the viscous and the Coulomb-friction limits), each at the face, cell or
+// candidates of stable_dt (advective u and w, the surface waves of the deepest column, the free
+// surface's viscous limit, and for the explicit scheme the viscous and the Coulomb-friction
+// limits), each at the face, cell or
 // column of its largest value over the ranks.
 std::string NdamSolver::dt_limit() const {
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();

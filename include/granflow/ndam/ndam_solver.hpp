@@ -252,13 +252,13 @@ class NdamSolver final : public core::Stepper {
   /// top and so on its bed: minus the top Surface cell's surface_viscous_stress, signed
   /// (positive where the surface extends), limited to the column's weight either way; 0
   /// without such a surface.
-  /// The free surface's viscous step limit K min(dx, dz)^2 / nu ('Viscous surface number').
-  double viscous_surface_dt() const;
   double surface_traction_at_bed(int i) const;
   /// The surface tractions t (one per global column) as the bed face right of global column gi
   /// carries them: filtered through the layer's depth (1 / cosh(k h)), then only the unloading
   /// part, at most the face's weight.
   double bed_surface_traction(int gi, const std::vector<double>& t) const;
+  /// The free surface's viscous step limit K min(dx, dz)^2 / nu ('Viscous surface number').
+  double viscous_surface_dt() const;
   /// The free surface inside global cell (gi, k) (wrapped when periodic): the column's marker
   /// depth clamped into [k dz, (k + 1) dz] for a Surface cell whose top side is empty; -1 for
   /// every other cell (or before the column depths exist).
