@@ -344,9 +344,8 @@ double NdamSolver::stable_dt() const {
   // (nu = 0.3 m^2/s, 5 mm: notches and pillars of single surface cells behind the gate, 20-40
   // m/s, at nu dt / h^2 = 36-48; held at 30). Not scaled by the CFL number: it is the scheme's
   // limit, not the flow's. With the default viscosity (0.003) K h^2 / nu = 0.17 s at 5 mm.
-  if (cfg_.momentum == Momentum::Implicit && cfg_.free_surface &&
-      cfg_.viscous_surface_number > 0.0 && rheo_.nu > 0.0)
-    cand(viscous_surface_dt(), "free-surface viscous limit, K min(dx, dz)^2 / nu");
+  if (const double v = viscous_surface_dt(); std::isfinite(v))
+    cand(v, "free-surface viscous limit, K min(dx, dz)^2 / nu");
   // Implicit and Newtonian: the dt of the assembled momentum matrix is held (kDtHoldFraction).
   if (cfg_.momentum == Momentum::Implicit && rheo_.newtonian() && momentum_dt_ > 0.0 &&
       momentum_dt_ <= dt && momentum_dt_ >= kDtHoldFraction * dt) {
@@ -357,6 +356,9 @@ double NdamSolver::stable_dt() const {
 }
 
 double NdamSolver::viscous_surface_dt() const {
+  if (cfg_.momentum != Momentum::Implicit || !cfg_.free_surface ||
+      !(cfg_.viscous_surface_number > 0.0) || !(rheo_.nu > 0.0))
+    return std::numeric_limits<double>::infinity();
   const double h = std::min(cfg_.grid.dx(), cfg_.grid.dz());
   return cfg_.viscous_surface_number * h * h / rheo_.nu;
 }
@@ -408,10 +410,7 @@ std::string NdamSolver::dt_limit() const {
   const double dt_gw = gw.v > 0.0 ? dx / gw.v : inf;
   const double dt_start = cfg_.momentum == Momentum::Implicit && friction_dt_ > 0.0 ? friction_dt_ : inf;
   // (the free surface's viscous limit is not scaled by the CFL number: compared as CFL-scaled)
-  const double dt_vs = cfg_.momentum == Momentum::Implicit && cfg_.free_surface &&
-                               cfg_.viscous_surface_number > 0.0 && rheo_.nu > 0.0
-                           ? viscous_surface_dt() / cfg_.cfl
-                           : inf;
+  const double dt_vs = viscous_surface_dt() / cfg_.cfl;
   std::ostringstream os;
   const double m = std::min({dt_u, dt_w, dt_nu, dt_fr, dt_gw, dt_start, dt_vs});
   if (!std::isfinite(m)) return "no velocity and no viscous limit (the material at rest)";

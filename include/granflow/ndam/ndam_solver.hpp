@@ -257,7 +257,8 @@ class NdamSolver final : public core::Stepper {
   /// carries them: filtered through the layer's depth (1 / cosh(k h)), then only the unloading
   /// part, at most the face's weight.
   double bed_surface_traction(int gi, const std::vector<double>& t) const;
-  /// The free surface's viscous step limit K min(dx, dz)^2 / nu ('Viscous surface number').
+  /// The free surface's viscous step limit K min(dx, dz)^2 / nu ('Viscous surface number');
+  /// infinite where it does not apply (explicit momentum, no free surface, K = 0 or nu = 0).
   double viscous_surface_dt() const;
   /// The free surface inside global cell (gi, k) (wrapped when periodic): the column's marker
   /// depth clamped into [k dz, (k + 1) dz] for a Surface cell whose top side is empty; -1 for
