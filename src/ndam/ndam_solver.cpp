@@ -32,6 +32,9 @@ constexpr double kLinearSolveStopResidual = 1e-6;
 // (a = 1 column, 5 mm: rms speed 31 mm/s against its creep bound 10.9); at 0.5 (the default
 // CFL) it rests (docs/validation.md, "What wakes the deposit").
 constexpr double kMaxWaveCourant = 0.5;
+// The gate's limit (stable_dt) cuts the step to at most this fraction of the others: a series
+// whose depth jumps within a shorter time is taken as a jump.
+constexpr double kGateJumpFraction = 1e-3;
 }  // namespace
 
 NdamSolver::NdamSolver(MPI_Comm comm, const NdamConfig& cfg, const Rheology& rheo,
@@ -338,6 +341,30 @@ double NdamSolver::stable_dt() const {
     cand(dx / c * std::min(1.0, kMaxWaveCourant / cfg_.cfl),
          "surface gravity waves, dx / sqrt(g cos(zeta) h)");
   dt *= cfg_.cfl;
+  // The gate of an inflow series: the opening h_in is taken at t^n for the whole step
+  // (gate_state), so a gate closing within one step turned several rows from inflow faces into
+  // the wall at once under a column still moving, and the projection answered with a suction
+  // that threw the gate's cells (m_y = 1000 s, CFL 0.5: four rows in one step, 5.4 m/s, a pulse
+  // on 20 deg that ran to the wall; docs/validation.md, "The gate pulse's run-out"). The edge
+  // of the opening is resolved like a wave: |h_in(t^n + dt) - h_in(t^n)| <= CFL dz. It binds
+  // only while the series opens or closes the gate (a 10 ms closure of 6 cm at 5 mm: 24 steps
+  // at CFL 0.5); a steady gate and an interface's inflow (no series) set no limit. A series
+  // row that moves the gate faster than kGateJumpFraction of the other limits allow is taken
+  // as the jump it describes (the step is not cut below that fraction).
+  if (cfg_.free_surface && cfg_.inflow && cfg_.inflow_volume) {
+    const double h0 = cfg_.inflow(t_)[0], moves = cfg_.cfl * dz;
+    double probe = std::isfinite(dt) ? dt : 1.0;  // at rest: the gate may still open
+    const double shortest = kGateJumpFraction * probe;
+    bool bound = false;
+    while (probe > shortest && std::abs(cfg_.inflow(t_ + probe)[0] - h0) > moves) {
+      probe = std::max(shortest, 0.75 * probe);
+      bound = true;
+    }
+    if (bound && probe < dt) {
+      dt = probe;
+      dt_cause_ = "inflow series, the gate's opening: CFL dz / |dh_in/dt|";
+    }
+  }
   // The free surface's viscous limit (implicit momentum): the viscous stress is implicit, but
   // the velocity conditions of the Surface cells' faces towards Empty cells are set from the
   // last iterate, an explicit part of the viscous operator; at large nu dt / h^2 it amplified

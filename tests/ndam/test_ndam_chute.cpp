@@ -735,6 +735,75 @@ TEST(NdamChute, GateSeriesAdmitsItsVolumeWhateverTheSteps) {
   }
 }
 
+// A gate that closes on its moving column (the stability suite's gate pulse: 6 cm at 0.37 m/s
+// for 0.2 s, shut within 10 ms, onto 20 deg with delta = 22 deg, 5 mm cells, Full cell and
+// weight, m_c = 1e4 s/m, and a stiff yield regularisation m_y = 1000 s). The gate state is
+// lagged at t^n, and at the default step four rows closed within one step of 3.4 ms: the
+// projection answered with a suction of -75 m^2/s^2 in the gate's column and threw its cells
+// (5.42 m/s at 0.207 s; the pulse then ran 1 m to the wall instead of resting at 0.4 m;
+// docs/validation.md, "The gate pulse's run-out"). Now the step resolves the gate's edge like a
+// wave, |h_in(t^n + dt) - h_in(t^n)| <= CFL dz. Asserted to 0.3 s (steps cut at outputs every
+// 0.1 s, as the driver does), at CFL 0.5 and 0.25:
+//  - the law itself, at every step: the opening moves by at most CFL dz (+1e-12 m: round-off
+//    of the series' interpolation);
+//  - no cell faster than the gate column can make it: u_in + 2 sqrt(g cos(zeta) h_in) = 1.86
+//    m/s, the frictionless dam-break front (Ritter) of the 6 cm column moving at u_in; the
+//    slope adds nothing, its pull g sin(zeta) being below the bed's friction g cos(zeta)
+//    tan(delta). Measured 0.83-0.85 m/s; 1.21 m/s with this test's steps before the limit
+//    (the scene's own step sequence threw a cell at 5.42 m/s);
+//  - the front (the last column deeper than 1 mm) at 0.3 s the same at both steps within two
+//    cells (the step sequence's spread of the run-out at 3 s is 3 cells, 0.398-0.423 m, over
+//    CFL 0.125-0.5 and output intervals 0.05-0.25 s; measured here: the same cell).
+// The box is 0.4 m long (the front is at about 0.18 m at 0.3 s, so the end wall plays no part).
+TEST(NdamChute, ClosingGateIsResolvedInTimeAndThrowsNoCells) {
+  const std::string f = ::testing::TempDir() + "gate_closing_series.csv";
+  std::ofstream(f) << "t,h,u\n0,0.06,0.37\n0.2,0.06,0.37\n0.21,0,0\n";
+  const auto series = core::InflowSeries::from_csv(f, "Inflow series file");
+  FsCase c = gate_chute();
+  c.series_file = f;
+  c.nx = 80;
+  c.lx = 0.4;
+  c.nz = 30;
+  c.lz = 0.15;
+  c.slope_deg = 20.0;
+  c.m_c = 1e4;
+  c.m_y = 1000.0;
+  c.surface_mass = "Full cell and weight";
+  const double t_end = 0.3, interval = 0.1, dz = c.lz / c.nz, g = 9.81;
+  const double zeta = core::deg2rad(c.slope_deg);
+  ASSERT_LT(std::tan(zeta), std::tan(core::deg2rad(c.delta_deg)));  // the bound's premise
+  const double bound = 0.37 + 2.0 * std::sqrt(g * std::cos(zeta) * 0.06);
+  std::vector<double> fronts;
+  for (double cfl : {0.5, 0.25}) {
+    c.cfl = cfl;
+    auto s = make_fs(c);
+    double fastest = 0.0, worst_move = 0.0;
+    int steps = 0;
+    while (s->time() < t_end - 1e-12) {
+      const double next = interval * (std::floor(s->time() / interval + 1e-9) + 1.0);
+      const double dt = std::min(s->stable_dt(), next - s->time());
+      worst_move = std::max(worst_move, std::abs(series.depth(s->time() + dt) -
+                                                 series.depth(s->time())) / (cfl * dz));
+      s->step(dt);
+      ASSERT_TRUE(s->check().ok) << "t = " << s->time();
+      s->accept();
+      ++steps;
+      fastest = std::max(fastest, s->max_speed().value);
+    }
+    const auto p = s->profile();
+    double front = 0.0;
+    for (std::size_t q = 0; q < p.x.size(); ++q)
+      if (p.h[q] > 1e-3) front = std::max(front, p.x[q]);
+    fronts.push_back(front);
+    std::printf("[measured] closing gate, CFL %.2f: %d steps, largest gate move %.3f CFL dz, "
+                "fastest cell %.3f m/s (bound %.2f), front %.4f m at %.1f s\n",
+                cfl, steps, worst_move, fastest, bound, front, t_end);
+    EXPECT_LE(worst_move, 1.0 + 1e-12 / (cfl * dz)) << "CFL " << cfl;
+    EXPECT_LT(fastest, bound) << "CFL " << cfl;
+  }
+  EXPECT_NEAR(fronts[0], fronts[1], 2.0 * c.lx / c.nx + 1e-9);
+}
+
 // A gate still open when the run ends: what it admitted, int h u dt = h_in u_in t, is the
 // injected markers plus what the rows hold as fractions of a marker (under one marker per open
 // marker row). summary.json reports that part as ndam.inflow_pending_area; the mass balance counts
