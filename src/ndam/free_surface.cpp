@@ -308,9 +308,6 @@ double NdamSolver::bed_surface_traction(int gi, const std::vector<double>& t) co
   const double dx = cfg_.grid.dx();
   h = std::max(h / nh, 0.5 * dx);
   const int reach = static_cast<int>(std::ceil(4.0 * h / dx)) + 1;
-  double weight = 0.0;
-  for (int g : {gi, gi + 1})
-    if (inside(g) && mac_.fluid(g, 0)) weight += std::abs(phys_.gz) * column_depth(g) / nh;
   // no traction within reach (most faces of a deposit, whose surface does not extend): 0,
   // without the kernel's cosh per column over 4 h; the largest one decides the gate below
   double tmax = 0.0;
@@ -326,6 +323,9 @@ double NdamSolver::bed_surface_traction(int gi, const std::vector<double>& t) co
     wsum += w;
   }
   if (wsum <= 0.0) return 0.0;
+  double weight = 0.0;
+  for (int g : {gi, gi + 1})
+    if (inside(g) && mac_.fluid(g, 0)) weight += std::abs(phys_.gz) * column_depth(g) / nh;
   // compression loads the bed only where no column within reach carries more than a quarter
   // of the face's weight (see above: a shock or an impact keeps the clamp at 0)
   const double lo = tmax <= 0.25 * weight ? -weight : 0.0;
