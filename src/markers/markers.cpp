@@ -640,6 +640,23 @@ std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flag
       stack.push_back({gi, k});
     }
   };
+  // Above its highest cell that is not Empty, a column is Empty up to the top row: open. That
+  // part (most of the box) is marked in one pass per column, and the fill starts from the
+  // Empty cells beside it, below the neighbour column's top; the open set is the one a fill
+  // from the top row finds (a connected component does not depend on where the fill starts).
+  std::vector<int> top(static_cast<std::size_t>(nx));
+  for (int gi = 0; gi < nx; ++gi) {
+    int k = nz;
+    while (k > 0 && flags[at(gi, k - 1)] == CellFlag::Empty) --k;
+    top[static_cast<std::size_t>(gi)] = k;
+    std::fill(open.begin() + static_cast<std::ptrdiff_t>(at(gi, k)),
+              open.begin() + static_cast<std::ptrdiff_t>(at(gi, nz - 1)) + 1, 1);
+  }
+  for (int gi = 0; gi < nx; ++gi)
+    for (int k = top[static_cast<std::size_t>(gi)]; k < nz; ++k) {
+      if (gi > 0 && k < top[static_cast<std::size_t>(gi) - 1]) seed(gi - 1, k);
+      if (gi + 1 < nx && k < top[static_cast<std::size_t>(gi) + 1]) seed(gi + 1, k);
+    }
   for (int gi = 0; gi < nx; ++gi) seed(gi, nz - 1);
   for (int k = 0; k < nz; ++k) {
     if (k >= sides.left_from) seed(0, k);
@@ -655,7 +672,7 @@ std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flag
   }
   std::vector<std::array<int, 2>> holes;
   for (int gi = 0; gi < nx; ++gi)
-    for (int k = 0; k < nz; ++k)
+    for (int k = 0; k < top[static_cast<std::size_t>(gi)]; ++k)
       if (flags[at(gi, k)] == CellFlag::Empty && !open[at(gi, k)]) holes.push_back({gi, k});
   return holes;
 }

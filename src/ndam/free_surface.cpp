@@ -417,7 +417,7 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
   for (int i = -2; i <= nxl + 1; ++i) {
     const int gi = mac_.slab.i0 + i;
     if (!inside(gi)) continue;
-    int k = nz - 1;
+    int k = mac_.top(gi) - 1;  // (above it every cell is Empty)
     while (k >= 0 && !mac_.fluid(gi, k)) --k;
     top_of[static_cast<std::size_t>(i + 2)] = k;
   }

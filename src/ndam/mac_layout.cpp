@@ -61,6 +61,10 @@ void MacLayout::classify(const std::vector<double>& counts, std::vector<CellFlag
         out[q] = CellFlag::Obstacle;
         continue;
       }
+      if (!(counts[q] > 0.0)) {  // classify_cell's Empty, without looking at the neighbours
+        out[q] = CellFlag::Empty;
+        continue;
+      }
       out[q] = classify_cell(counts[q] > 0.0, empty(gi - 1, k), empty(gi + 1, k),
                              empty(gi, k - 1), empty(gi, k + 1), mask[q]);
     }
@@ -68,7 +72,18 @@ void MacLayout::classify(const std::vector<double>& counts, std::vector<CellFlag
   mask_out = std::move(mask);
 }
 
+void MacLayout::refresh_tops() {
+  const int nx = grid.nx, nz = grid.nz;
+  tops.assign(static_cast<std::size_t>(nx), 0);
+  for (int gi = 0; gi < nx; ++gi) {
+    int k = nz;
+    while (k > 0 && flags[static_cast<std::size_t>(gi * nz + k - 1)] == CellFlag::Empty) --k;
+    tops[static_cast<std::size_t>(gi)] = k;
+  }
+}
+
 void MacLayout::classify_surface_pressure() {
+  refresh_tops();
   inside.assign(flags.size(), 0);
   if (!ghost_surface || depth.empty()) return;
   const int nx = grid.nx, nz = grid.nz;

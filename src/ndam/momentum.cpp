@@ -291,12 +291,22 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   std::vector<double>& x = mom_x_;
   rhs.resize(static_cast<std::size_t>(2 * nxl * nz));
   x.resize(rhs.size());
-  for (int i = 0; i < nxl; ++i)
-    for (int k = 0; k < nz; ++k) {
-      const auto lr = static_cast<std::size_t>(2 * mac_.p_gid(mac_.slab.i0 + i, k) - first);
-      x[lr] = u_(i, k);  // initial guess: u^n (wall-normal faces: 0)
-      x[lr + 1] = w_(i, k);
+  // The rows of a column's Empty region (from MacLayout::empty_from on: no face there is an
+  // unknown) are identity rows with value 0, set in one fill; the loops below stop there.
+  std::vector<int>& kend = mom_kend_;
+  kend.resize(static_cast<std::size_t>(nxl));
+  for (int i = 0; i < nxl; ++i) {
+    const int ke = mac_.empty_from(i);
+    kend[static_cast<std::size_t>(i)] = ke;
+    const auto lr = static_cast<std::ptrdiff_t>(2 * mac_.p_gid(mac_.slab.i0 + i, ke) - first);
+    std::fill(rhs.begin() + lr, rhs.begin() + lr + 2 * (nz - ke), 0.0);
+    std::fill(x.begin() + lr, x.begin() + lr + 2 * (nz - ke), 0.0);
+    for (int k = 0; k < ke; ++k) {
+      const auto l = static_cast<std::size_t>(2 * mac_.p_gid(mac_.slab.i0 + i, k) - first);
+      x[l] = u_(i, k);  // initial guess: u^n (wall-normal faces: 0)
+      x[l + 1] = w_(i, k);
     }
+  }
   // A Coulomb wall makes the step nonlinear in u* (the step's mean friction factor,
   // update_friction): Newton's method, each iteration a solve with the friction linearised
   // about the last solution (relinearise_friction), until the law holds to
@@ -339,7 +349,7 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
   auto emit_all = [&](bool matrix) {
     friction_rows_.clear();
     for (int i = 0; i < nxl; ++i)
-      for (int k = 0; k < nz; ++k)
+      for (int k = 0; k < kend[static_cast<std::size_t>(i)]; ++k)
         for (Comp c : {U, W})
           if (emit_row(i, k, c, matrix)) friction_rows_.push_back({i, k, c});
   };
@@ -396,7 +406,7 @@ void NdamSolver::predict_velocity(double dt, Field& us, Field& ws) {
     stats_.worst_momentum_residual = std::max(stats_.worst_momentum_residual, mom_stats_.residual);
     if (!mom_stats_.converged) ++stats_.unconverged_solves;
     for (int i = 0; i < nxl; ++i)
-      for (int k = 0; k < nz; ++k) {
+      for (int k = 0; k < kend[static_cast<std::size_t>(i)]; ++k) {
         const auto lr = static_cast<std::size_t>(2 * mac_.p_gid(mac_.slab.i0 + i, k) - first);
         if (mac_.u_unknown(i, k)) us(i, k) = x[lr];
         if (mac_.w_unknown(i, k)) ws(i, k) = x[lr + 1];

@@ -641,9 +641,11 @@ void NdamSolver::accept() {
     std::swap(mac_.empty_mask, mask_new_);
     std::swap(mac_.depth, depth_new_);
     mac_.classify_surface_pressure();
-    for (int i = 0; i < mac_.slab.nx_local; ++i)
+    for (int i = 0; i < mac_.slab.nx_local; ++i) {
+      const int top = mac_.top(mac_.slab.i0 + i);  // (above: all Empty)
       for (int k = 0; k < cfg_.grid.nz; ++k)
-        if (mac_.gflag(mac_.slab.i0 + i, k) == CellFlag::Empty) p_(i, k) = 0.0;
+        if (k >= top || mac_.gflag(mac_.slab.i0 + i, k) == CellFlag::Empty) p_(i, k) = 0.0;
+    }
     fill_scalar_ghosts(p_);
     t_ = t_new_;
     if (cfg_.inflow) inflow_now_ = cfg_.inflow(t_);

@@ -43,7 +43,7 @@ void NdamSolver::assemble_pressure() {
         }
   fluid_cells_ = 0;
   for (int gi = 0; gi < nx; ++gi)
-    for (int k = 0; k < nz; ++k)
+    for (int k = 0; k < mac_.top(gi); ++k)  // (above: Empty cells)
       if (mac_.p_unknown(gi, k)) ++fluid_cells_;
   const double cx = 1.0 / (cfg_.grid.dx() * cfg_.grid.dx());
   const double cz = 1.0 / (cfg_.grid.dz() * cfg_.grid.dz());
@@ -61,7 +61,7 @@ void NdamSolver::assemble_pressure() {
   pressure_->begin();
   for (int i = 0; i < nxl; ++i) {
     const int gi = mac_.slab.i0 + i;
-    for (int k = 0; k < nz; ++k) {
+    for (int k = 0; k < mac_.top(gi); ++k) {  // (above: Empty cells, rows without entries)
       const long long row = mac_.p_gid(gi, k);
       // The pinned cell and every cell that is not a pressure unknown (obstacle: phi = 0;
       // Surface: phi from the normal-stress condition; Empty: p = 0) is an identity row whose
@@ -118,7 +118,7 @@ double NdamSolver::dirichlet_distance() const {
   queue.clear();
   long long unknowns = 0;
   for (int gi = 0; gi < nx; ++gi)
-    for (int k = 0; k < nz; ++k) {
+    for (int k = 0; k < mac_.top(gi); ++k) {
       const CellFlag f = mac_.flags[static_cast<std::size_t>(gi * nz + k)];
       if ((f == CellFlag::Fluid || f == CellFlag::Surface) && mac_.p_unknown(gi, k)) {
         dist[static_cast<std::size_t>(gi * nz + k)] = 0;
@@ -129,7 +129,7 @@ double NdamSolver::dirichlet_distance() const {
     return mac_.gflag(gn, kn) != CellFlag::Obstacle && !mac_.p_unknown(gn, kn);
   };
   for (int gi = 0; gi < nx; ++gi)
-    for (int k = 0; k < nz; ++k) {
+    for (int k = 0; k < mac_.top(gi); ++k) {
       const std::size_t c = static_cast<std::size_t>(gi * nz + k);
       if (dist[c] != 0) continue;
       if (given(gi + 1, k) || given(gi - 1, k) || given(gi, k + 1) || given(gi, k - 1)) {
@@ -274,7 +274,7 @@ double NdamSolver::divergence(const Field& u, const Field& w, int i, int k) cons
 double NdamSolver::max_abs_divergence(const Field& u, const Field& w) const {
   double dmax = 0.0;
   for (int i = 0; i < mac_.slab.nx_local; ++i)
-    for (int k = 0; k < cfg_.grid.nz; ++k)
+    for (int k = 0; k < mac_.top(mac_.slab.i0 + i); ++k)
       if (mac_.fluid(mac_.slab.i0 + i, k)) dmax = std::max(dmax, std::abs(divergence(u, w, i, k)));
   return detail::allreduce_max(dmax, comm_);
 }
@@ -295,7 +295,7 @@ void NdamSolver::solve_pressure(double dt, const Field& us, const Field& ws, Fie
     for (int k = 0; k < nz; ++k) {
       const int gi = mac_.slab.i0 + i;
       const auto q = static_cast<std::size_t>(i * nz + k);
-      if (!mac_.p_unknown(gi, k)) {
+      if (k >= mac_.top(gi) || !mac_.p_unknown(gi, k)) {  // (above the top: Empty)
         rhs[q] = x[q] = p_dir_(i, k);
         continue;
       }
@@ -344,10 +344,10 @@ void NdamSolver::solve_pressure(double dt, const Field& us, const Field& ws, Fie
 }
 
 void NdamSolver::correct_velocity(double dt, const Field& phi, Field& us, Field& ws) const {
-  const int nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
+  const int nxl = mac_.slab.nx_local;
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz();
   for (int i = 0; i < nxl; ++i) {
-    for (int k = 0; k < nz; ++k) {
+    for (int k = 0; k < mac_.empty_from(i); ++k) {  // (above: no unknown face)
       if (mac_.u_unknown(i, k)) us(i, k) -= dt * pressure_difference(phi, U, i, k) / dx;
       if (mac_.w_unknown(i, k)) ws(i, k) -= dt * pressure_difference(phi, W, i, k) / dz;
     }

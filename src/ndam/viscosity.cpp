@@ -34,7 +34,7 @@ void NdamSolver::update_viscosity(const Field& p_yield) {
     // below delta = 22 deg at 1-1.5 cm/s; docs/validation.md, "The weight of the full cells").
     int top = -1;
     const double weight = std::abs(phys_.gz) * full_cell_excess(mac_.slab.i0 + i, &top);
-    for (int k = 0; k < nz; ++k) {
+    for (int k = 0; k < mac_.top(mac_.slab.i0 + i); ++k) {  // (above: Empty cells)
       if (!mac_.fluid(mac_.slab.i0 + i, k)) continue;
       const double d11 = (u_(i, k) - u_(i - 1, k)) / dx;
       const double d22 = (w_(i, k) - w_(i, k - 1)) / dz;
@@ -54,8 +54,11 @@ void NdamSolver::update_viscosity(const Field& p_yield) {
   if (has_obstacles_ || cfg_.free_surface) {
     // Obstacle cells enter the corner averages of nu_eff on their surfaces: give them the mean
     // of their fluid neighbours (a mirror, as at the box walls).
-    for (int i = 0; i < mac_.slab.nx_local; ++i)
-      for (int k = 0; k < nz; ++k) {
+    for (int i = 0; i < mac_.slab.nx_local; ++i) {
+      // from empty_from on no cell has a material neighbour: nu
+      const int ke = mac_.empty_from(i);
+      for (int k = ke; k < nz; ++k) nu_(i, k) = rheo_.nu;
+      for (int k = 0; k < ke; ++k) {
         const int gi = mac_.slab.i0 + i;
         if (mac_.fluid(gi, k)) continue;
         double sum = 0.0;
@@ -68,6 +71,7 @@ void NdamSolver::update_viscosity(const Field& p_yield) {
           }
         nu_(i, k) = n > 0 ? sum / n : rheo_.nu;
       }
+    }
     fill_scalar_ghosts(nu_);
   }
   update_friction(p_yield);

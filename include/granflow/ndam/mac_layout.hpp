@@ -17,6 +17,7 @@
 
 #include <mpi.h>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -126,8 +127,32 @@ class MacLayout {
   /// between the columns' centres: above the cell theta = (depth - z_c) / dz; to the side,
   /// where depth(x) falls to z_c between the two centres, else 1/2; below, 1/2.
   double surface_theta(int gm, int km, int ge, int ke) const;
-  /// `inside` from the flags, masks and column depths (ghost-fluid surface only).
+  /// `inside` from the flags, masks and column depths (ghost-fluid surface only), and the
+  /// columns' tops (refresh_tops): called after every update of the flags.
   void classify_surface_pressure();
+
+  /// The extent of the material in each column: tops[gi] = 1 + the highest k whose cell is not
+  /// Empty (0: the whole column Empty), from the flags (refresh_tops). Every cell above lies in
+  /// the Empty region, where no face or cell is an unknown, so the step's loops over a column
+  /// stop there instead of testing the flags of the whole box (at 1.3 mm 17 cells of the box
+  /// for each material cell).
+  std::vector<int> tops;
+  void refresh_tops();
+  /// tops of global column gi: 0 outside a non-periodic box, wrapped when periodic, nz before
+  /// the first refresh_tops (every cell counted).
+  int top(int gi) const {
+    if (periodic) gi = (gi % grid.nx + grid.nx) % grid.nx;
+    else if (gi < 0 || gi >= grid.nx) return 0;
+    return tops.empty() ? grid.nz : tops[static_cast<std::size_t>(gi)];
+  }
+  /// The first row k of local column i from which on the cell (gi, k), its neighbours left,
+  /// right, below and above, and so every face of the cell, are Empty: no unknown, no material
+  /// neighbour (at most nz).
+  int empty_from(int i) const {
+    const int gi = slab.i0 + i;
+    const int k = std::max({top(gi - 1), top(gi) + 1, top(gi + 1)});
+    return k < grid.nz ? k : grid.nz;
+  }
   /// Mask of the Empty neighbours of global Surface cell (gi, k) (wrapped when periodic).
   std::uint8_t mask(int gi, int k) const { return empty_mask[cell(gi, k)]; }
   /// Index gi * nz + k of a cell inside the box (wrapped when periodic).

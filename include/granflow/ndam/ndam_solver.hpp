@@ -433,6 +433,7 @@ class NdamSolver final : public core::Stepper {
   // the momentum solve's right-hand side and solution, kept between steps (each step sets
   // every entry; a fresh 2 nx nz vector per step was zeroed for nothing)
   std::vector<double> mom_rhs_, mom_x_;
+  std::vector<int> mom_kend_;  // per local column: the first row of its Empty region
   // the momentum rows that sample a Coulomb ghost (the friction's re-solves add only these)
   struct FaceRow {
     int i, k;
