@@ -5,7 +5,9 @@ Runs Setup II in full 2D (inputs/setup2_ndam.xml, the shipped defaults) to t = 0
 and 1.3 mm, one run at a time, and prints per resolution: wall time, per-phase seconds, steps,
 Krylov iterations per solve, peak resident memory (and per material cell), and the run's time as
 a multiple of the floor; then the momentum and pressure phases split into preconditioner setups,
-Krylov iterations and the rest (assembly, copies). With GRANFLOW=/path/to/other/granflow the same scenes also run through
+Krylov iterations and the rest (assembly, copies). A header line describes the machine (CPU
+model, cores, threads per core, memory, the load average at the start and the end; also
+machine.json beside benchmark.json). With GRANFLOW=/path/to/other/granflow the same scenes also run through
 that build, back to back with this one (ours, then the other, per resolution and repeat), and a
 ratio column says how much faster this build is (median over the repeats).
 
@@ -97,6 +99,29 @@ def floor_per_step(bench, cells, prec, np_):
     return float(row[3]) + float(row[7])
 
 
+def machine():
+    """What the timings were taken on (the brief: report the machine with the figures): the CPU
+    model, cores and threads per core from lscpu, the memory, the load average now, the host."""
+    info = {"host": os.uname().nodename, "cpu": "?", "cores": os.cpu_count(), "threads_per_core": "?"}
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
+        for line in out.splitlines():
+            k, _, v = line.partition(":")
+            if k.strip() == "Model name":
+                info["cpu"] = v.strip()
+            elif k.strip() == "Thread(s) per core":
+                info["threads_per_core"] = v.strip()
+    except (OSError, subprocess.CalledProcessError):
+        pass
+    try:
+        kb = [l for l in open("/proc/meminfo") if l.startswith("MemTotal:")][0].split()[1]
+        info["memory_GB"] = round(int(kb) / 1024 ** 2, 1)
+    except (OSError, IndexError, ValueError):
+        info["memory_GB"] = "?"
+    info["load_average"] = os.getloadavg()[0]
+    return info
+
+
 def split(n):
     """The momentum and pressure phases split into preconditioner setups, Krylov iterations and
     the rest (assembly of matrix and right-hand side, copies), in seconds; None for a build whose
@@ -135,6 +160,7 @@ def main():
     for r in res:
         if r not in GRIDS:
             sys.exit("benchmark: --resolutions: '%s' is not one of %s" % (r, ", ".join(GRIDS)))
+    before = machine()
     rows = []
     for r in res:
         nx, nz = GRIDS[r]
@@ -171,11 +197,19 @@ def main():
             row["speedup_vs_other"] = row["other_wall_s"] / wall
         rows.append(row)
     json.dump(rows, open(os.path.join(a.out, "benchmark.json"), "w"), indent=1)
+    after = machine()
+    before["load_average_end"] = after["load_average"]
+    json.dump(before, open(os.path.join(a.out, "machine.json"), "w"), indent=1)
     hdr = ("| dx [mm] | cells | np | wall [s] | steps | momentum | pressure | markers | other | "
            "Krylov/solve p / m | material cells | peak [MB] | kB/material cell | floor [s] | "
            "x floor |" + (" other build [s] | speed-up |" if other else ""))
     print("# granflow benchmark: Setup II full 2D to t = %g s, %s, median of %d run(s)"
           % (a.end_time, exe, a.repeat))
+    print("# machine: %s (%s), %s cores, %s thread(s) per core, %s GB; load average %.2f at the "
+          "start, %.2f at the end (a busy machine slows every run: compare ratios of runs made "
+          "back to back)" % (before["host"], before["cpu"], before["cores"],
+                             before["threads_per_core"], before["memory_GB"],
+                             before["load_average"], before["load_average_end"]))
     print(hdr)
     print("|" + "---|" * (hdr.count("|") - 1))
     for w in rows:

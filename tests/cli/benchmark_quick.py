@@ -5,7 +5,7 @@ Krylov counts are copied, the floor is positive and below the run's own time spe
 momentum and pressure phases plus everything else (a run does at least one pressure and one
 momentum solve per step on at least its material cells, so wall / floor must exceed 1 unless
 the floor is mis-timed or mis-scaled; measured 3.8x and 10.5x on this machine), and the peak
-memory is the summary's. Usage: benchmark_quick.py BUILD_DIR OUT_DIR"""
+memory is the summary's; machine.json names the machine. Usage: benchmark_quick.py BUILD_DIR OUT_DIR"""
 import json
 import os
 import subprocess
@@ -31,4 +31,8 @@ for r in rows:
     assert 0 < r["floor_s"] and r["multiple_of_floor"] > 1.0, r
     print("%g mm: %d steps, %.2f s, floor %.3f s (x %.1f)" % (
         r["resolution_mm"], r["steps"], r["wall_s"], r["floor_s"], r["multiple_of_floor"]))
+# the machine the figures were taken on is reported with them (machine.json and the header)
+m = json.load(open(os.path.join(out, "machine.json")))
+assert m["cores"] == os.cpu_count() and m["cpu"] and m["load_average"] >= 0.0, m
+assert m["load_average_end"] >= 0.0, m
 print("benchmark report checks passed")
