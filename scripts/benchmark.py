@@ -147,6 +147,12 @@ def main():
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--fresh", action="store_true")
     a = ap.parse_args()
+    # a count below 1 has nothing to time (and a median of no runs is undefined)
+    for name, value in (("--np", a.np), ("--repeat", a.repeat)):
+        if value < 1:
+            ap.error("%s = %d; allowed: an integer of at least 1" % (name, value))
+    if not a.end_time > 0.0:
+        ap.error("--end-time = %g; allowed: a time above 0 s" % a.end_time)
     if a.quick:
         a.resolutions, a.end_time = "10,5", 0.1
     exe = os.path.abspath(os.path.join(a.build, "apps", "granflow"))
@@ -159,7 +165,7 @@ def main():
     res = a.resolutions.split(",")
     for r in res:
         if r not in GRIDS:
-            sys.exit("benchmark: --resolutions: '%s' is not one of %s" % (r, ", ".join(GRIDS)))
+            ap.error("--resolutions: '%s' is not one of %s" % (r, ", ".join(GRIDS)))
     before = machine()
     rows = []
     for r in res:
