@@ -646,8 +646,7 @@ std::vector<std::array<int, 2>> enclosed_voids(const std::vector<CellFlag>& flag
   // from the top row finds (a connected component does not depend on where the fill starts).
   std::vector<int> top(static_cast<std::size_t>(nx));
   for (int gi = 0; gi < nx; ++gi) {
-    int k = nz;
-    while (k > 0 && flags[at(gi, k - 1)] == CellFlag::Empty) --k;
+    const int k = column_top(&flags[at(gi, 0)], nz);
     top[static_cast<std::size_t>(gi)] = k;
     std::fill(open.begin() + static_cast<std::ptrdiff_t>(at(gi, k)),
               open.begin() + static_cast<std::ptrdiff_t>(at(gi, nz - 1)) + 1, 1);

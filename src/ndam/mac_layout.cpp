@@ -75,11 +75,8 @@ void MacLayout::classify(const std::vector<double>& counts, std::vector<CellFlag
 void MacLayout::refresh_tops() {
   const int nx = grid.nx, nz = grid.nz;
   tops.assign(static_cast<std::size_t>(nx), 0);
-  for (int gi = 0; gi < nx; ++gi) {
-    int k = nz;
-    while (k > 0 && flags[static_cast<std::size_t>(gi * nz + k - 1)] == CellFlag::Empty) --k;
-    tops[static_cast<std::size_t>(gi)] = k;
-  }
+  for (int gi = 0; gi < nx; ++gi)
+    tops[static_cast<std::size_t>(gi)] = column_top(&flags[static_cast<std::size_t>(gi * nz)], nz);
 }
 
 void MacLayout::classify_surface_pressure() {

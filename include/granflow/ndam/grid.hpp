@@ -45,6 +45,14 @@ inline CellFlag classify_cell(bool has_markers, bool empty_left, bool empty_righ
   return mask ? CellFlag::Surface : CellFlag::Fluid;
 }
 
+/// One above the highest cell of a column that is not Empty (0: the whole column Empty), for
+/// the column's nz flags `col` (bottom first): every cell from there up is Empty.
+inline int column_top(const CellFlag* col, int nz) {
+  int k = nz;
+  while (k > 0 && col[k - 1] == CellFlag::Empty) --k;
+  return k;
+}
+
 struct Grid {
   int nx = 32, nz = 32;          ///< global cells
   double lx = 1.0, lz = 1.0;     ///< box [m]
