@@ -39,7 +39,9 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidTimeParameters() 
                "[s] a stable dt below this stops the run as diverged (with a diagnosis)", 0.0,
                1.0);
     add_int(*pl, "Max steps", static_cast<int>(d.max_steps),
-            "stop (exit code 5) after this many steps", 1, 2000000000);
+            "stop (exit code 5) after this many steps, counted from the scene's start (a "
+            "restart continues the count); checkpoint.h5 then holds the stopped state",
+            1, 2000000000);
     add_double(*pl, "Speed limit", d.speed_limit,
                "[m/s] a material speed above this stops the run as diverged (exit code 3, with "
                "a diagnosis; the last good output and checkpoint are kept). 0: " +
@@ -781,13 +783,22 @@ int Simulation::advance(const io::Checkpoint& ck) {
   while (model_->time() < rc_.end_time - eps_t) {
     if (const int sig = pending_signal()) return interrupted(sig);
     if (model_->steps() >= rc_.max_steps) {
-      write_summary("step_limit",
-                    "reached 'Max steps' = " + std::to_string(rc_.max_steps) +
-                        " before the end time",
-                    kStepLimit);
+      // As at an interrupt, the stopped (accepted) state goes into the checkpoint: it held
+      // the last output's state before, so a restart repeated the steps since then (an
+      // independent run: stopped at step 100, t = 0.385 s, checkpoint of step 86, 0.35 s).
+      const auto t1 = Clock::now();
+      write_checkpoint();
+      phase_seconds_["output"] += std::chrono::duration<double>(Clock::now() - t1).count();
+      if (std::find(files_.begin(), files_.end(), "checkpoint.h5") == files_.end())
+        files_.push_back("checkpoint.h5");
+      std::ostringstream os;
+      os << "reached 'Max steps' = " << rc_.max_steps << " before the end time; stopped after step "
+         << model_->steps() << " at t = " << model_->time()
+         << " s; checkpoint.h5 holds this state (resume with 'Output->Restart from' and a "
+            "larger 'Max steps': the count runs from the scene's start)";
+      write_summary("step_limit", os.str(), kStepLimit);
       show_progress(true, false);
-      if (io_rank())
-        std::cerr << "granflow: stopped at the step limit (t = " << model_->time() << " s)\n";
+      if (io_rank()) std::cerr << "granflow: " << os.str() << "\n";
       return kStepLimit;
     }
     const double t = model_->time();

@@ -420,6 +420,13 @@ add_test(NAME cli.restart_exact_2d_coupled_dynamic
                  ${PROJECT_SOURCE_DIR}/inputs/setup2_coupled.xml
                  ${PROJECT_SOURCE_DIR}/inputs/setup2_dynamic.xml)
 set_tests_properties(cli.restart_exact_2d_coupled_dynamic PROPERTIES LABELS "cli" TIMEOUT 600)
+# A run stopped by 'Max steps' checkpoints the stopped state, and a restart with a larger limit
+# continues bit for bit (an independent run: the checkpoint held the last output's state).
+add_test(NAME cli.step_limit_checkpoints_the_stopped_state
+         COMMAND /usr/bin/python3 ${_cli}/step_limit_restart.py $<TARGET_FILE:granflow>
+                 ${CMAKE_CURRENT_BINARY_DIR}/step_limit_restart
+                 ${PROJECT_SOURCE_DIR}/inputs/setup2_dynamic.xml)
+set_tests_properties(cli.step_limit_checkpoints_the_stopped_state PROPERTIES LABELS "cli" TIMEOUT 300)
 # ... and on two ranks, through the full 2D box's slab rebuilds (issue 14 item 4)
 add_test(NAME cli.restart_exact_2d_np2
          COMMAND ${CMAKE_COMMAND} -E env NP=2 /usr/bin/python3 ${_cli}/restart_exact.py
