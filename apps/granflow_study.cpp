@@ -6,6 +6,8 @@
 //       over the flowing part) at each common output time, and the velocity averaged over
 //       [0, L] against time (Fig. 14). Writes DIR/compare_errors.csv,
 //       DIR/average_velocity.csv and, when python3 with matplotlib is present, DIR/compare.png.
+//       Where the reference has no flowing point (or averages 0 over [0, L]) the relative
+//       errors are undefined: their CSV fields stay empty and the table prints "-".
 //   granflow-study layout RUN [--length L] [--threshold E] [--margin M] [--min-length S]
 //                  [--h-min H]
 //       A priori 2D/1D layout from a (fast, 1D) run: 2D wherever eps >= E at any output time
@@ -36,6 +38,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -72,9 +75,12 @@ int usage(std::ostream& os, int code) {
 
 double number(const std::string& opt, const char* v) {
   char* end = nullptr;
+  errno = 0;
   const double d = std::strtod(v, &end);
-  if (end == v || *end != '\0' || !std::isfinite(d)) {
-    std::cerr << "granflow-study: option " << opt << " needs a number, got '" << v << "'\n";
+  // (ERANGE: 1e-400 read as 0 and 1e999 as inf, numbers other than the ones written)
+  if (end == v || *end != '\0' || !std::isfinite(d) || errno == ERANGE) {
+    std::cerr << "granflow-study: option " << opt << " needs a number"
+              << (errno == ERANGE ? " a double can hold" : "") << ", got '" << v << "'\n";
     std::exit(2);
   }
   return d;
@@ -128,6 +134,26 @@ int compare_cmd(int argc, char** argv) {
       return 2;
     }
   }
+  // The options' ranges (an independent run: --average-length 5 on a 1 m channel divided the
+  // integral over [0, 1] m by 5 m, 0 and -1 gave averages of 0 with a relative error of 0, and
+  // a negative --h-min was taken).
+  auto refuse = [](const std::string& opt, double v, const std::string& allowed) {
+    std::cerr << "granflow-study: " << opt << " " << granflow::params::str(v) << ": allowed: "
+              << allowed << "\n";
+    return 2;
+  };
+  if (!(h_min >= 0.0)) return refuse("--h-min", h_min, "a depth >= 0 m");
+  if (!(u_min >= 0.0)) return refuse("--u-min", u_min, "a speed >= 0 m/s");
+  if (!ref.empty()) {
+    const ProfileAt& p0 = ref.begin()->second;
+    const std::size_t n = p0.x.size();
+    const double x_end = n >= 2 ? p0.x[n - 1] + 0.5 * (p0.x[n - 1] - p0.x[n - 2]) : 0.0;
+    if (!(l > 0.0) || l > x_end * (1.0 + 1e-9))
+      return refuse("--average-length", l,
+                    "a length in (0, " + granflow::params::str(x_end) + "] m (the channel)");
+  }
+  for (double t : times)
+    if (!(t >= 0.0)) return refuse("--times", t, "output times >= 0 s");
   if (times.empty())
     for (const auto& [t, p] : ref)
       if (at_time(test, t)) times.push_back(t);
@@ -155,13 +181,33 @@ int compare_cmd(int argc, char** argv) {
     const auto e = compare(*r, *s, h_min, u_min);
     const double ar = average_velocity(*r, l), as = average_velocity(*s, l);
     const double ra = ar != 0.0 ? std::abs(as - ar) / std::abs(ar) : 0.0;
-    ce << t << ",h," << e.h.max_rel << ',' << e.h.l2_rel << ',' << e.h.points << '\n';
-    ce << t << ",u_mean," << e.u.max_rel << ',' << e.u.l2_rel << ',' << e.u.points << '\n';
-    av << t << ',' << ar << ',' << as << ',' << ra << '\n';
-    std::cout << std::setw(10) << t << " | " << std::setw(10) << e.h.max_rel << " | "
-              << std::setw(10) << e.h.l2_rel << " | " << std::setw(10) << e.u.max_rel << " | "
-              << std::setw(10) << e.u.l2_rel << " | " << std::setw(3) << e.h.points << " | "
-              << ra << "\n";
+    // No flowing point of the reference (e.g. t = 0, or --h-min above every depth): the
+    // relative errors are undefined, not 0; the CSV leaves them empty and the table says so.
+    auto value = [&](double v) {
+      std::ostringstream os;
+      os << std::setprecision(8);
+      if (e.h.points > 0) os << v;
+      return os.str();
+    };
+    ce << t << ",h," << value(e.h.max_rel) << ',' << value(e.h.l2_rel) << ',' << e.h.points << '\n';
+    ce << t << ",u_mean," << value(e.u.max_rel) << ',' << value(e.u.l2_rel) << ',' << e.u.points
+       << '\n';
+    av << t << ',' << ar << ',' << as << ',';
+    if (ar != 0.0) av << std::abs(as - ar) / std::abs(ar);
+    av << '\n';
+    auto cell = [&](double v) {
+      std::ostringstream os;
+      os << std::setprecision(6);
+      if (e.h.points > 0) os << v;
+      else os << "-";
+      return os.str();
+    };
+    std::cout << std::setw(10) << t << " | " << std::setw(10) << cell(e.h.max_rel) << " | "
+              << std::setw(10) << cell(e.h.l2_rel) << " | " << std::setw(10) << cell(e.u.max_rel)
+              << " | " << std::setw(10) << cell(e.u.l2_rel) << " | " << std::setw(3) << e.h.points
+              << " | ";
+    if (ar != 0.0) std::cout << ra << "\n";
+    else std::cout << "- (reference average 0)\n";
   }
   ce.close();
   av.close();

@@ -68,3 +68,35 @@ if(NOT code EQUAL 2 OR NOT err MATCHES "time 0.33 s is not an output time of bot
    EXISTS coupled_check_bad)
   message(FATAL_ERROR "compare --times 0.33: exit ${code}, '${err}', or files left behind")
 endif()
+# compare refuses options out of their range (an independent run: --average-length 5 on this
+# 1 m channel divided the integral over [0, 1] m by 5 m with exit 0, 0 and -1 gave averages of 0
+# with an error of 0, a negative --h-min and --times 1e-400, read as 0, were taken)
+foreach(bad "--average-length;5;allowed: a length in \\(0, 1\\] m" "--average-length;0;allowed: a length in"
+            "--h-min;-1;allowed: a depth >= 0 m" "--u-min;-1;allowed: a speed >= 0 m/s")
+  list(GET bad 0 opt)
+  list(GET bad 1 val)
+  list(GET bad 2 msg)
+  execute_process(COMMAND ${STUDY} compare coupled_check_ndam coupled_check_coupled ${opt} ${val}
+                          --out coupled_check_bad
+                  RESULT_VARIABLE code OUTPUT_QUIET ERROR_VARIABLE err)
+  if(NOT code EQUAL 2 OR NOT err MATCHES "${opt} ${val}: ${msg}" OR EXISTS coupled_check_bad)
+    message(FATAL_ERROR "compare ${opt} ${val}: exit ${code}, '${err}', or files left behind")
+  endif()
+endforeach()
+execute_process(COMMAND ${STUDY} compare coupled_check_ndam coupled_check_coupled --times 1e-400
+                RESULT_VARIABLE code OUTPUT_QUIET ERROR_VARIABLE err)
+if(NOT code EQUAL 2 OR NOT err MATCHES "needs a number a double can hold, got '1e-400'")
+  message(FATAL_ERROR "compare --times 1e-400: exit ${code}, '${err}'")
+endif()
+# Where the reference has no flowing point (here --h-min above every depth; also t = 0 before
+# anything flows) the relative errors are undefined: empty fields and "-" in the table, not an
+# error of 0 (an independent run).
+file(REMOVE_RECURSE coupled_check_deep)
+execute_process(COMMAND ${STUDY} compare coupled_check_ndam coupled_check_coupled --times 0.5
+                        --h-min 10 --out coupled_check_deep
+                RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_QUIET)
+file(STRINGS coupled_check_deep/compare_errors.csv deep REGEX "^0\\.5,")
+if(NOT code EQUAL 0 OR NOT deep STREQUAL "0.5,h,,,0;0.5,u_mean,,,0" OR
+   NOT out MATCHES "0.5 \\|          - \\|")
+  message(FATAL_ERROR "compare --h-min 10: exit ${code}, rows '${deep}', table '${out}'")
+endif()
