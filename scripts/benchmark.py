@@ -187,7 +187,7 @@ def main():
         # the scene's momentum preconditioner (the default when the scene does not set it)
         prec = s.get("parameters", {}).get("N-DAM", {}).get("Momentum solver", {}).get(
             "Preconditioner", "Ifpack2 RELAXATION")
-        floor = n["steps"] * floor_per_step(bench, cells, prec, a.np)
+        floor = n["steps"] * floor_per_step(bench, cells, prec, a.np) if cells > 0 else None
         peak = s["memory"]["peak_resident_bytes_rank0"]
         wall = statistics.median(walls)
         row = {"resolution_mm": float(r), "cells": "%d x %d" % (nx, nz), "np": a.np,
@@ -196,8 +196,11 @@ def main():
                "krylov_m": n["momentum_krylov_iterations_per_solve"],
                "split": split(n),
                "material_cells": cells, "peak_MB": peak / 1e6,
-               "bytes_per_material_cell": peak / cells, "floor_s": floor,
-               "multiple_of_floor": wall / floor}
+               # no material cell at any output (an end time before the gate's first marker
+               # row, an independent run: a ZeroDivisionError): no figure per cell, no floor
+               "bytes_per_material_cell": peak / cells if cells > 0 else None,
+               "floor_s": floor if cells > 0 else None,
+               "multiple_of_floor": wall / floor if cells > 0 else None}
         if other:
             row["other_wall_s"] = statistics.median(walls_other)
             row["speedup_vs_other"] = row["other_wall_s"] / wall
@@ -220,13 +223,14 @@ def main():
     print("|" + "---|" * (hdr.count("|") - 1))
     for w in rows:
         sec = w["seconds"]
+        opt = lambda v, fmt, scale=1.0: "-" if v is None else fmt % (v / scale)
         line = ("| %g | %s | %d | %.3g | %d | %.3g | %.3g | %.3g | %.3g | %.1f / %.1f | %.0f | "
-                "%.0f | %.1f | %.3g | %.1f |" % (
+                "%.0f | %s | %s | %s |" % (
                     w["resolution_mm"], w["cells"], w["np"], w["wall_s"], w["steps"],
                     sec.get("momentum", 0), sec.get("pressure", 0), sec.get("markers", 0),
                     sec.get("other", 0), w["krylov_p"], w["krylov_m"], w["material_cells"],
-                    w["peak_MB"], w["bytes_per_material_cell"] / 1e3, w["floor_s"],
-                    w["multiple_of_floor"]))
+                    w["peak_MB"], opt(w["bytes_per_material_cell"], "%.1f", 1e3),
+                    opt(w["floor_s"], "%.3g"), opt(w["multiple_of_floor"], "%.1f")))
         if other:
             line += " %.1f | %.2fx |" % (w["other_wall_s"], w["speedup_vs_other"])
         if w["status"] != "completed":

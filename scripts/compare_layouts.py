@@ -169,10 +169,11 @@ def errors(ref, test):
 def shock(prof, L):
     """The shock: where arriving material meets the material stopped at the wall (Pudasaini et
     al. 2007), taken as the steepest drop of u_mean over two columns among the columns deeper
-    than 1 mm downstream of the fastest flow; L when nothing has stopped at the wall yet."""
+    than 1 mm downstream of the fastest flow; None when nothing has stopped at the wall
+    yet (the table shows '-'; it showed L, a shock at the wall, before)."""
     wet = [p for p in prof if p[1] > 1e-3]
     if len(wet) < 3 or abs(prof[-1][2]) > 0.05 or prof[-1][1] <= 1e-3:
-        return L
+        return None
     i_fast = max(range(len(wet)), key=lambda i: wet[i][2])
     best, x = 0.0, L
     for i in range(max(i_fast, 1), len(wet) - 1):
@@ -208,6 +209,20 @@ def main():
                     help="the layouts to run (full and dynamic always: the reference and the "
                          "ideal saving)")
     args = ap.parse_args()
+    # The options' ranges, and the --set names, before any run (an independent run: --cell 0
+    # ran the scenes' own grid, --times between outputs were taken as the nearest output, and a
+    # misspelt --set name was found after three variants had run)
+    for opt, v in (("--cell", args.cell), ("--end", args.end), ("--height", args.height),
+                   ("--interval", args.interval)):
+        if v is not None and not (v > 0 and math.isfinite(v)):
+            ap.error("%s %g: allowed: a number > 0" % (opt, v))
+    if args.times is not None and not all(t >= 0 and math.isfinite(t) for t in args.times):
+        ap.error("--times %s: allowed: output times >= 0 s" % " ".join("%g" % t for t in args.times))
+    off = [t for t in args.times or [] if abs(t / args.interval - round(t / args.interval)) > 1e-6]
+    if off:
+        ap.error("--times %s: not multiples of --interval %g s; allowed: output times" %
+                 (" ".join("%g" % t for t in off), args.interval))
+    variant_xml(args.family, "dynamic", args, args.outdir)  # refuses an unknown --set name
     variants = [v for v in VARIANTS if v in set(args.variants) | {"full", "dynamic"}]
     build = os.path.abspath(args.build)
     L = FAMILIES[args.family]["length"]
@@ -220,6 +235,10 @@ def main():
     times = sorted(prof["full"])
     table_times = args.times or [t for t in times if t > 0][-4:]
     table_times = [min(times, key=lambda s: abs(s - t)) for t in table_times]
+    late = [t for t, s in zip(args.times or [], table_times) if abs(s - t) > 1e-6]
+    if late:
+        sys.exit("compare_layouts: --times %s: not output times of the full 2D run (every %g s "
+                 "to %g s)" % (" ".join("%g" % t for t in late), args.interval, times[-1]))
 
     rows = []
     for t in table_times:
@@ -265,7 +284,7 @@ def main():
     for r in rows:
         md.append(f"| {r['t']:g} | {r['run']} | {r['h_L2']:.3f} | {r['h_max']:.3f} | "
                   f"{r['u_L2']:.3f} | {r['u_max']:.3f} | {r['wall_depth']:.4f} | "
-                  f"{r['shock']:.3f} | {r['interfaces']} |")
+                  f"{'-' if r['shock'] is None else '%.3f' % r['shock']} | {r['interfaces']} |")
     md += ["", "| run | wall time [s] | CPU time [s] | steps | moves | mass defect [m^2] | relative defect |",
            "|---|---|---|---|---|---|---|"]
     for v in variants:
@@ -304,7 +323,7 @@ def main():
         if pts:
             ax.plot([p[0] for p in pts], [p[1] for p in pts], colour + "o", ms=size,
                     mfc="none" if v == "dynamic" else colour, label=f"interfaces, {v}")
-    sh = [(shock(prof["full"][t], L), t) for t in times if shock(prof["full"][t], L) < L]
+    sh = [(shock(prof["full"][t], L), t) for t in times if shock(prof["full"][t], L) is not None]
     if sh:
         ax.plot([p[0] for p in sh], [p[1] for p in sh], "k-", lw=2, label="shock, full 2D")
     ax.set_xlabel("x [m]")

@@ -18,6 +18,7 @@ last column of the last 2D mesh (the wall column in a chute ending at a wall).
 Uses h5dump/h5ls (hdf5-tools), no Python HDF5 module.
 Usage: scripts/find_holes.py OUTPUT_DIR [--quiet]
 Exit status 1 if any hole was found, 0 if none, 2 if the directory holds no 2D fields."""
+import argparse
 import bisect
 import json
 import re
@@ -77,10 +78,13 @@ def holes(flag, open_right, z_nodes=None, depth_1d=None):
 
 
 def main():
-    if len(sys.argv) < 2:
-        print(__doc__)
-        return 2
-    out, quiet = sys.argv[1], "--quiet" in sys.argv[2:]
+    # argparse: -h/--help print the usage, and a second directory or an unknown option is
+    # refused (an independent run: -h was taken as a run directory, a second directory ignored)
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    ap.add_argument("output_dir", help="a granflow run directory with field output")
+    ap.add_argument("--quiet", action="store_true", help="print only the summary line")
+    a = ap.parse_args()
+    out, quiet = a.output_dir, a.quiet
     f = f"{out}/fields.h5"
     # a run directory with 2D fields, or a message and exit 2 (not 1: that means holes found)
     try:

@@ -174,6 +174,22 @@ def main():
         args.family, args.cells, args.end = "setup2", [10.0, 5.0], args.end or 0.6
         args.methods = args.methods or ["full", "static", "dynamic", "dam"]
         args.times = args.times or [0.4, 0.6]
+    # (an independent run: --cells 0 ended in a ZeroDivisionError, -10 in a ValueError, and
+    # --times between or beyond the outputs were taken as the nearest output without a word)
+    if args.cells is not None and (not args.cells or not all(c > 0 and math.isfinite(c)
+                                                              for c in args.cells)):
+        ap.error("--cells %s: allowed: one or more cell sizes > 0 mm" %
+                 " ".join("%g" % c for c in args.cells))
+    for opt, v in (("--end", args.end), ("--height", args.height), ("--interval", args.interval)):
+        if v is not None and not (v > 0 and math.isfinite(v)):
+            ap.error("%s %g: allowed: a number > 0" % (opt, v))
+    if args.times is not None and not all(t >= 0 and math.isfinite(t) for t in args.times):
+        ap.error("--times %s: allowed: output times >= 0 s" % " ".join("%g" % t for t in args.times))
+    # before any run: a time off the output grid (a time beyond the end is found after the runs)
+    off = [t for t in args.times or [] if abs(t / args.interval - round(t / args.interval)) > 1e-6]
+    if off:
+        ap.error("--times %s: not multiples of --interval %g s; allowed: output times" %
+                 (" ".join("%g" % t for t in off), args.interval))
     cells = args.cells or ([5.0, 2.5] if args.family == "lab_chute" else [5.0, 2.5, 1.3])
     methods = args.methods or METHODS
     if DAM_SCENES[args.family] is None and "dam" in methods:
@@ -189,6 +205,10 @@ def main():
     ref = cl.profiles(runs[("full", finest)])
     times = sorted(ref)
     table_times = [min(times, key=lambda s: abs(s - t)) for t in (args.times or [times[-1]])]
+    off = [t for t, s in zip(args.times or [], table_times) if abs(s - t) > 1e-6]
+    if off:
+        sys.exit("pareto: --times %s: not output times of the runs (every %g s to %g s); allowed: "
+                 "those output times" % (" ".join("%g" % t for t in off), args.interval, times[-1]))
     # the reference's own error (first order: the difference to the next coarser full run)
     ref_err = {}
     coarser = sorted(c for (m, c) in runs if m == "full" and c > finest)

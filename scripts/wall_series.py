@@ -6,19 +6,42 @@ final load, and the load against the hydrostatic one of the wall column, rho g c
 Standard library only.
 
 Usage: scripts/wall_series.py RUN_DIR [RUN_DIR ...] [--windows A:B,...] (milliseconds after
-the first contact; default 0:5,0:10,0:20,20:50,100:150,300:400)"""
+the first contact, 0 <= A < B; default 0:5,0:10,0:20,20:50,100:150,300:400; also --windows=...)"""
+import argparse
 import csv
 import json
 import math
+import os
 import sys
 
-dirs = [a for a in sys.argv[1:] if not a.startswith("--")]
-windows = [(0, 5), (0, 10), (0, 20), (20, 50), (100, 150), (300, 400)]
-for a in sys.argv[1:]:
-    if a.startswith("--windows="):
-        windows = [tuple(float(v) for v in w.split(":")) for w in a.split("=", 1)[1].split(",")]
-if not dirs:
-    sys.exit(__doc__)
+
+def window_list(text):
+    """A:B,... in ms after the first contact, 0 <= A < B (an independent run: --windows 0:5
+    was taken as a run directory, and 5:0 or 0:0 printed nan means)."""
+    out = []
+    for w in text.split(","):
+        try:
+            a, b = (float(v) for v in w.split(":"))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"'{w}' is not A:B (two numbers of ms)")
+        if not (0 <= a < b and math.isfinite(b)):
+            raise argparse.ArgumentTypeError(f"'{w}': allowed: 0 <= A < B ms")
+        out.append((a, b))
+    return out
+
+
+ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+ap.add_argument("dirs", nargs="+", metavar="RUN_DIR")
+ap.add_argument("--windows", type=window_list,
+                default=[(0, 5), (0, 10), (0, 20), (20, 50), (100, 150), (300, 400)],
+                help="A:B,... [ms] after the first contact")
+args = ap.parse_args()
+dirs, windows = args.dirs, args.windows
+for d in dirs:
+    for f in ("summary.json", "wall.csv"):
+        if not os.path.isfile(os.path.join(d, f)):
+            sys.exit(f"wall_series: {d} has no {f} (a granflow run of a channel that ends at a "
+                     "wall?)")
 
 for d in dirs:
     s = json.load(open(d + "/summary.json"))
