@@ -263,6 +263,15 @@ int layout_cmd(int argc, char** argv) {
   const auto lay = propose_layout(p, length, threshold, margin, min_length, h_min);
   std::cout << "a priori layout from " << run << " (2D where eps >= " << threshold
             << ", margin " << margin << " m):\n";
+  // The eps column of 2D rows is |w_mean| / |u_mean| (0 at rest), not 1/Fr^2 (an independent
+  // run applied the threshold to a full 2D run without being told)
+  bool two_d = false;
+  for (const auto& [t, q] : p)
+    for (const auto& m : q.model) two_d = two_d || m == "2D";
+  if (two_d)
+    std::cout << "  (note: this run has 2D columns; their eps in profiles.csv is |w_mean| / "
+                 "|u_mean|, 0 at rest, not 1/Fr^2: the layout is meant to be derived from a 1D "
+                 "run)\n";
   for (const auto& s : lay)
     std::cout << "  " << s.model << "  [" << s.x0 << ", " << s.x1 << "] m\n";
   return 0;

@@ -459,7 +459,12 @@ nlohmann::json Simulation::wall_summary() const {
   };
   nlohmann::json j;
   j["file"] = "wall.csv";
-  j["sampling"] = "the initial state and every accepted step";
+  // (a dynamic layout with a 1D part at the wall samples nothing until that part becomes 2D:
+  // the DAM does not resolve the wall's pressure field; an independent run found the claim
+  // "the initial state" false there)
+  j["sampling"] = "the initial state and every accepted step while the part at the wall is 2D "
+                  "(a coupled run's 1D part at the wall, which a dynamic layout may make 2D "
+                  "later, has no rows)";
   j["units"] = {{"force", "N/m"}, {"normal_force", "N/m"}, {"shear", "N/m"}, {"p_foot", "Pa"},
                 {"depth", "m"}};
   j["note"] = "loads on the end wall per unit width: force = rho int p dz (p taken to the wall), "
@@ -590,8 +595,14 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   for (const auto& f : files_)
     if (f == "summary.json" || std::filesystem::exists(rc_.directory + "/" + f))
       written.push_back(f);
+  // output_times: written by this run (a restart counts from its start); field_snapshots: held
+  // by fields.h5 (a restart into its own directory keeps the earlier ones: it reported 7 for a
+  // file of 25 before, an independent run)
   s["outputs"] = {{"output_times", outputs_},
-                  {"field_snapshots", rc_.fields ? outputs_ : 0},
+                  {"output_times_note", "output times written by this run (a restart counts "
+                                        "from its start); field_snapshots: the snapshots "
+                                        "fields.h5 holds"},
+                  {"field_snapshots", rc_.fields && io_rank() ? io_->fields.snapshots() : 0},
                   {"directory", rc_.directory},
                   {"files", written}};
   if (io_->wall_on) s["wall_load"] = wall_summary();
@@ -798,7 +809,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
             "larger 'Max steps': the count runs from the scene's start)";
       write_summary("step_limit", os.str(), kStepLimit);
       show_progress(true, false);
-      if (io_rank()) std::cerr << "granflow: " << os.str() << "\n";
+      if (io_rank()) std::cerr << "granflow: stopped at the step limit: " << os.str() << "\n";
       return kStepLimit;
     }
     const double t = model_->time();

@@ -424,7 +424,9 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                      channel.left.type == core::BoundaryType::Inflow;
     const bool rok = channel.right.type == core::BoundaryType::Wall ||
                      channel.right.type == core::BoundaryType::Outflow;
-    Teuchos::ParameterList where("Channel");
+    // (the full path in the message, as every other input error gives it)
+    Teuchos::ParameterList root("granflow");
+    Teuchos::ParameterList& where = root.sublist("Channel");
     if (!lok || pl_)
       params::fail(where.sublist("Left boundary"), "Type", core::to_string(channel.left.type),
                    "the free-surface N-DAM chute; allowed: Inflow or Wall (with N-DAM "

@@ -102,8 +102,9 @@ void NdamSolver::setup() {
   }
   if (cfg_.free_surface) {
     if (has_obstacles_)
-      throw params::InputError("N-DAM->Obstacles: obstacles are not available with 'Free "
-                               "surface' = true in this version; allowed: no obstacles");
+      throw params::InputError("parameter 'granflow->N-DAM->Obstacles': obstacles are not "
+                               "available with 'Free surface' = true in this version; allowed: "
+                               "no obstacles");
     // Markers: the left side injects (MarkerSet reflects there like a wall when nothing is
     // injected), the right side removes at an open outflow; bed and top are walls.
     MarkerConfig mc;
