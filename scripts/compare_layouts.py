@@ -191,6 +191,22 @@ def interfaces(prof):
     return out
 
 
+def check_options(ap, args, positive=()):
+    """Refuses (argparse's exit 2) --end, --height, --interval and the given (option, value)
+    pairs unless > 0, and --times unless >= 0 and multiples of --interval (the output times; a
+    time beyond the end is found after the runs). Shared with pareto.py."""
+    for opt, v in tuple(positive) + (("--end", args.end), ("--height", args.height),
+                                     ("--interval", args.interval)):
+        if v is not None and not (v > 0 and math.isfinite(v)):
+            ap.error("%s %g: allowed: a number > 0" % (opt, v))
+    if args.times is not None and not all(t >= 0 and math.isfinite(t) for t in args.times):
+        ap.error("--times %s: allowed: output times >= 0 s" % " ".join("%g" % t for t in args.times))
+    off = [t for t in args.times or [] if abs(t / args.interval - round(t / args.interval)) > 1e-6]
+    if off:
+        ap.error("--times %s: not multiples of --interval %g s; allowed: output times" %
+                 (" ".join("%g" % t for t in off), args.interval))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("build")
@@ -212,16 +228,7 @@ def main():
     # The options' ranges, and the --set names, before any run (an independent run: --cell 0
     # ran the scenes' own grid, --times between outputs were taken as the nearest output, and a
     # misspelt --set name was found after three variants had run)
-    for opt, v in (("--cell", args.cell), ("--end", args.end), ("--height", args.height),
-                   ("--interval", args.interval)):
-        if v is not None and not (v > 0 and math.isfinite(v)):
-            ap.error("%s %g: allowed: a number > 0" % (opt, v))
-    if args.times is not None and not all(t >= 0 and math.isfinite(t) for t in args.times):
-        ap.error("--times %s: allowed: output times >= 0 s" % " ".join("%g" % t for t in args.times))
-    off = [t for t in args.times or [] if abs(t / args.interval - round(t / args.interval)) > 1e-6]
-    if off:
-        ap.error("--times %s: not multiples of --interval %g s; allowed: output times" %
-                 (" ".join("%g" % t for t in off), args.interval))
+    check_options(ap, args, (("--cell", args.cell),))
     variant_xml(args.family, "dynamic", args, args.outdir)  # refuses an unknown --set name
     variants = [v for v in VARIANTS if v in set(args.variants) | {"full", "dynamic"}]
     build = os.path.abspath(args.build)

@@ -180,16 +180,7 @@ def main():
                                                               for c in args.cells)):
         ap.error("--cells %s: allowed: one or more cell sizes > 0 mm" %
                  " ".join("%g" % c for c in args.cells))
-    for opt, v in (("--end", args.end), ("--height", args.height), ("--interval", args.interval)):
-        if v is not None and not (v > 0 and math.isfinite(v)):
-            ap.error("%s %g: allowed: a number > 0" % (opt, v))
-    if args.times is not None and not all(t >= 0 and math.isfinite(t) for t in args.times):
-        ap.error("--times %s: allowed: output times >= 0 s" % " ".join("%g" % t for t in args.times))
-    # before any run: a time off the output grid (a time beyond the end is found after the runs)
-    off = [t for t in args.times or [] if abs(t / args.interval - round(t / args.interval)) > 1e-6]
-    if off:
-        ap.error("--times %s: not multiples of --interval %g s; allowed: output times" %
-                 (" ".join("%g" % t for t in off), args.interval))
+    cl.check_options(ap, args)  # --end, --height, --interval > 0; --times on the output grid
     cells = args.cells or ([5.0, 2.5] if args.family == "lab_chute" else [5.0, 2.5, 1.3])
     methods = args.methods or METHODS
     if DAM_SCENES[args.family] is None and "dam" in methods:

@@ -646,14 +646,18 @@ void Simulation::show_progress(bool final, bool at_output) {
   std::cerr.flush();
 }
 
-int Simulation::interrupted(int sig) {
-  // The last accepted state goes into the checkpoint (also with 'Checkpoint' = false: it is
-  // what a restart needs); profiles and fields stay at the output times.
+void Simulation::checkpoint_stopped_state() {
   const auto t1 = Clock::now();
   write_checkpoint();
   phase_seconds_["output"] += std::chrono::duration<double>(Clock::now() - t1).count();
   if (std::find(files_.begin(), files_.end(), "checkpoint.h5") == files_.end())
     files_.push_back("checkpoint.h5");
+}
+
+int Simulation::interrupted(int sig) {
+  // The last accepted state goes into the checkpoint; profiles and fields stay at the output
+  // times.
+  checkpoint_stopped_state();
   std::ostringstream os;
   os << signal_name(sig) << " received; stopped after step " << model_->steps() << " at t = "
      << model_->time() << " s; checkpoint.h5 holds this state (resume with 'Output->Restart "
@@ -797,11 +801,7 @@ int Simulation::advance(const io::Checkpoint& ck) {
       // As at an interrupt, the stopped (accepted) state goes into the checkpoint: it held
       // the last output's state before, so a restart repeated the steps since then (an
       // independent run: stopped at step 100, t = 0.385 s, checkpoint of step 86, 0.35 s).
-      const auto t1 = Clock::now();
-      write_checkpoint();
-      phase_seconds_["output"] += std::chrono::duration<double>(Clock::now() - t1).count();
-      if (std::find(files_.begin(), files_.end(), "checkpoint.h5") == files_.end())
-        files_.push_back("checkpoint.h5");
+      checkpoint_stopped_state();
       std::ostringstream os;
       os << "reached 'Max steps' = " << rc_.max_steps << " before the end time; stopped after step "
          << model_->steps() << " at t = " << model_->time()

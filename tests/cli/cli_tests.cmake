@@ -363,6 +363,32 @@ add_test(NAME cli.benchmark_quick
          COMMAND /usr/bin/python3 ${_cli}/benchmark_quick.py ${CMAKE_BINARY_DIR} ${CMAKE_CURRENT_BINARY_DIR}/benchmark_quick)
 set_tests_properties(cli.benchmark_quick PROPERTIES LABELS "cli" TIMEOUT 300)
 
+# The scripts refuse what they cannot honour with exit 2, naming the option, the value and what
+# is allowed, before any run (an independent run, session 32: tracebacks, a cell size of 0
+# running the scenes' own grid, times between outputs taken as the nearest, a second run
+# directory ignored, windows A >= B giving nan means)
+function(granflow_script_test name expected_code regex script)
+  string(REPLACE ";" " " _args "${PROJECT_SOURCE_DIR}/scripts/${script};${ARGN}")
+  add_test(NAME cli.${name}
+           COMMAND ${CMAKE_COMMAND} -DEXE=/usr/bin/python3 "-DARGS=${_args}"
+                   -DEXPECTED_CODE=${expected_code} -DREGEX=${regex}
+                   -P ${_cli}/run_cli.cmake
+           WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
+  set_tests_properties(cli.${name} PROPERTIES LABELS "cli")
+endfunction()
+granflow_script_test(pareto_cells_zero 2 "--cells 0: allowed: one or more cell sizes > 0 mm"
+                     pareto.py ${CMAKE_BINARY_DIR} script_refusals --cells 0)
+granflow_script_test(pareto_times_off_grid 2 "--times 0.15: not multiples of --interval 0.1 s"
+                     pareto.py ${CMAKE_BINARY_DIR} script_refusals --interval 0.1 --times 0.15 0.2)
+granflow_script_test(compare_layouts_cell_zero 2 "--cell 0: allowed: a number > 0"
+                     compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --cell 0)
+granflow_script_test(compare_layouts_unknown_set 1 "--set 'Bogus=1': the dynamic scene has no parameter"
+                     compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --set Bogus=1)
+granflow_script_test(find_holes_two_directories 2 "unrecognized arguments: b"
+                     find_holes.py a b)
+granflow_script_test(wall_series_reversed_window 2 "'5:0': allowed: 0 <= A < B ms"
+                     wall_series.py a --windows 5:0)
+
 # Error against run time (issue 12 item 5): the quick matrix of scripts/pareto.py is produced and
 # agrees with its runs' summary.json; the full matrices are long runs (label `long`; they resume
 # from the runs already made in their directory).

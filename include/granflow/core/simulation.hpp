@@ -113,6 +113,9 @@ class Simulation {
   void sample_wall();
   nlohmann::json wall_summary() const;
   void write_checkpoint();
+  /// A run stopped between steps (a signal, 'Max steps'): the last accepted state into
+  /// checkpoint.h5 (also with 'Checkpoint' = false: it is what a restart needs), timed as output.
+  void checkpoint_stopped_state();
   int interrupted(int signal);
   void write_summary(const std::string& status, const std::string& reason, int code);
   void show_progress(bool final, bool at_output);
