@@ -73,14 +73,24 @@ int usage(std::ostream& os, int code) {
   return code;
 }
 
-double number(const std::string& opt, const char* v) {
+// A decimal number (as granflow reads its scene: no hex, no nan/inf) that a double holds:
+// strtod reads 1e-400 as 0 and 1e999 as inf with ERANGE, numbers other than the ones written
+// (a denormal such as 1e-320, also flagged ERANGE, is held and taken).
+bool parse_number(const char* v, double& d) {
   char* end = nullptr;
   errno = 0;
-  const double d = std::strtod(v, &end);
-  // (ERANGE: 1e-400 read as 0 and 1e999 as inf, numbers other than the ones written)
-  if (end == v || *end != '\0' || !std::isfinite(d) || errno == ERANGE) {
-    std::cerr << "granflow-study: option " << opt << " needs a number"
-              << (errno == ERANGE ? " a double can hold" : "") << ", got '" << v << "'\n";
+  d = std::strtod(v, &end);
+  const std::string text(v);
+  const bool hex = text.find_first_of("xX") != std::string::npos;
+  const bool lost = errno == ERANGE && (d == 0.0 || !std::isfinite(d));
+  return end != v && *end == '\0' && std::isfinite(d) && !hex && !lost;
+}
+
+double number(const std::string& opt, const char* v) {
+  double d = 0.0;
+  if (!parse_number(v, d)) {
+    std::cerr << "granflow-study: option " << opt << " needs a decimal number a double can "
+              << "hold, got '" << v << "'\n";
     std::exit(2);
   }
   return d;
@@ -107,7 +117,11 @@ int compare_cmd(int argc, char** argv) {
       return argv[++i];
     };
     if (a == "--times") {
-      while (i + 1 < argc && argv[i + 1][0] != '-') times.push_back(number(a, argv[++i]));
+      // the values up to the next option (a negative time is a value, refused below; it was
+      // taken for an unknown option '-0.2')
+      double d = 0.0;
+      while (i + 1 < argc && (argv[i + 1][0] != '-' || parse_number(argv[i + 1], d)))
+        times.push_back(number(a, argv[++i]));
     } else if (a == "--h-min") h_min = number(a, next());
     else if (a == "--u-min") u_min = number(a, next());
     else if (a == "--average-length") l = number(a, next());
@@ -263,14 +277,14 @@ int layout_cmd(int argc, char** argv) {
   const auto lay = propose_layout(p, length, threshold, margin, min_length, h_min);
   std::cout << "a priori layout from " << run << " (2D where eps >= " << threshold
             << ", margin " << margin << " m):\n";
-  // The eps column of 2D rows is |w_mean| / |u_mean| (0 at rest), not 1/Fr^2 (an independent
+  // The eps column of 2D rows is |w_mean| / |u_mean|, not 1/Fr^2 (an independent
   // run applied the threshold to a full 2D run without being told)
   bool two_d = false;
   for (const auto& [t, q] : p)
     for (const auto& m : q.model) two_d = two_d || m == "2D";
   if (two_d)
     std::cout << "  (note: this run has 2D columns; their eps in profiles.csv is |w_mean| / "
-                 "|u_mean|, 0 at rest, not 1/Fr^2: the layout is meant to be derived from a 1D "
+                 "|u_mean|, not 1/Fr^2: the layout is meant to be derived from a 1D "
                  "run)\n";
   for (const auto& s : lay)
     std::cout << "  " << s.model << "  [" << s.x0 << ", " << s.x1 << "] m\n";

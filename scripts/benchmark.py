@@ -47,7 +47,7 @@ def scene(out, name, nx, nz, end):
     text = open(os.path.join(ROOT, "inputs", "setup2_ndam.xml")).read()
     subs = [(r'(name="Cells x" type="int" value=")\d+', r"\g<1>%d" % nx),
             (r'(name="Cells z" type="int" value=")\d+', r"\g<1>%d" % nz),
-            (r'(name="End time" type="double" value=")[^"]*', r"\g<1>%g" % end),
+            (r'(name="End time" type="double" value=")[^"]*', r"\g<1>%r" % end),
             (r'(name="Directory" type="string" value=")[^"]*', r"\g<1>" + os.path.join(out, name))]
     for pat, rep in subs:
         text, n = re.subn(pat, rep, text, count=1)
@@ -151,8 +151,8 @@ def main():
     for name, value in (("--np", a.np), ("--repeat", a.repeat)):
         if value < 1:
             ap.error("%s = %d; allowed: an integer of at least 1" % (name, value))
-    if not a.end_time > 0.0:
-        ap.error("--end-time = %g; allowed: a time above 0 s" % a.end_time)
+    if not (a.end_time > 0.0 and math.isfinite(a.end_time)):
+        ap.error("--end-time = %g; allowed: a finite time above 0 s" % a.end_time)
     if a.quick:
         a.resolutions, a.end_time = "10,5", 0.1
     exe = os.path.abspath(os.path.join(a.build, "apps", "granflow"))

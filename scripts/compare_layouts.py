@@ -192,19 +192,24 @@ def interfaces(prof):
 
 
 def check_options(ap, args, positive=()):
-    """Refuses (argparse's exit 2) --end, --height, --interval and the given (option, value)
-    pairs unless > 0, and --times unless >= 0 and multiples of --interval (the output times; a
-    time beyond the end is found after the runs). Shared with pareto.py."""
-    for opt, v in tuple(positive) + (("--end", args.end), ("--height", args.height),
-                                     ("--interval", args.interval)):
-        if v is not None and not (v > 0 and math.isfinite(v)):
-            ap.error("%s %g: allowed: a number > 0" % (opt, v))
+    """Refuses (argparse's exit 2) --end, --height and --interval unless >= 1e-9 (the run's
+    time resolution; smaller positive numbers overflowed the grid arithmetic), the given
+    (option, value, smallest) triples below their smallest, and --times unless >= 0 and
+    multiples of --interval or --end (the output times; a time beyond the end is found after
+    the runs). Shared with pareto.py."""
+    for opt, v, least in tuple(positive) + (("--end", args.end, 1e-9),
+                                            ("--height", args.height, 1e-9),
+                                            ("--interval", args.interval, 1e-9)):
+        if v is not None and not (v >= least and math.isfinite(v)):
+            ap.error("%s %g: allowed: a number >= %g" % (opt, v, least))
     if args.times is not None and not all(t >= 0 and math.isfinite(t) for t in args.times):
         ap.error("--times %s: allowed: output times >= 0 s" % " ".join("%g" % t for t in args.times))
-    off = [t for t in args.times or [] if abs(t / args.interval - round(t / args.interval)) > 1e-6]
+    on_grid = lambda t: (abs(t / args.interval - round(t / args.interval)) <= 1e-6 or
+                         (args.end is not None and abs(t - args.end) <= 1e-9 * max(1.0, t)))
+    off = [t for t in args.times or [] if not on_grid(t)]
     if off:
-        ap.error("--times %s: not multiples of --interval %g s; allowed: output times" %
-                 (" ".join("%g" % t for t in off), args.interval))
+        ap.error("--times %s: not multiples of --interval %g s (nor the --end time); allowed: "
+                 "output times" % (" ".join("%g" % t for t in off), args.interval))
 
 
 def main():
@@ -228,7 +233,11 @@ def main():
     # The options' ranges, and the --set names, before any run (an independent run: --cell 0
     # ran the scenes' own grid, --times between outputs were taken as the nearest output, and a
     # misspelt --set name was found after three variants had run)
-    check_options(ap, args, (("--cell", args.cell),))
+    check_options(ap, args, (("--cell", args.cell, 1e-3),))
+    coarsest = 100.0 * FAMILIES[args.family]["length"]  # [mm] 10 cells along the channel
+    if args.cell is not None and args.cell > coarsest:
+        ap.error("--cell %g: allowed: a cell size in [0.001, %g] mm (10 cells along the channel "
+                 "or more)" % (args.cell, coarsest))
     variant_xml(args.family, "dynamic", args, args.outdir)  # refuses an unknown --set name
     variants = [v for v in VARIANTS if v in set(args.variants) | {"full", "dynamic"}]
     build = os.path.abspath(args.build)

@@ -176,10 +176,18 @@ def main():
         args.times = args.times or [0.4, 0.6]
     # (an independent run: --cells 0 ended in a ZeroDivisionError, -10 in a ValueError, and
     # --times between or beyond the outputs were taken as the nearest output without a word)
-    if args.cells is not None and (not args.cells or not all(c > 0 and math.isfinite(c)
+    # (at least 10 cells along the channel: --cells 5000 gave 'Cells x' = 0, and a denormal
+    # cell size overflowed)
+    coarsest = 100.0 * FAMILIES[args.family]["length"]
+    if args.cells is not None and (not args.cells or not all(1e-3 <= c <= coarsest
                                                               for c in args.cells)):
-        ap.error("--cells %s: allowed: one or more cell sizes > 0 mm" %
-                 " ".join("%g" % c for c in args.cells))
+        ap.error("--cells %s: allowed: one or more cell sizes in [0.001, %g] mm (10 cells along "
+                 "the channel or more)" % (" ".join("%g" % c for c in args.cells), coarsest))
+    # the reference of the report is the finest full 2D run (--methods dam alone ended in a
+    # traceback after its runs)
+    if args.methods is not None and "full" not in args.methods:
+        ap.error("--methods %s: allowed: a list that holds full (the reference)" %
+                 " ".join(args.methods))
     cl.check_options(ap, args)  # --end, --height, --interval > 0; --times on the output grid
     cells = args.cells or ([5.0, 2.5] if args.family == "lab_chute" else [5.0, 2.5, 1.3])
     methods = args.methods or METHODS

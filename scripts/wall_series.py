@@ -70,16 +70,25 @@ for d in dirs:
                 den += hi - lo
         return num / den if den else float("nan")
 
+    def covered(a, b):  # [ms] of the window [a, b] the run reaches (it may end inside it)
+        return max(0.0, min(b, 1e3 * (rows[-1]["t"] - tc)) - a)
+
     for a, b in windows:
         if tc + a / 1e3 >= rows[-1]["t"]:  # the run ended before the window
             print(f"  mean over +[{a:g}, {b:g}] ms: no rows (the run ends at +"
                   f"{1e3 * (rows[-1]['t'] - tc):.0f} ms)")
             continue
+        # (an independent run: a window the run ends inside was printed as if whole)
+        part = covered(a, b)
+        note = "" if part >= b - a - 1e-9 else f" (the run ends at +{a + part:.1f} ms: mean of that part)"
         print(f"  mean over +[{a:g}, {b:g}] ms: force {mean('force', a / 1e3, b / 1e3):7.1f}  "
               f"normal {mean('normal_force', a / 1e3, b / 1e3):7.1f}  shear "
-              f"{mean('shear', a / 1e3, b / 1e3):6.1f} N/m  p_foot {mean('p_foot', a / 1e3, b / 1e3):7.0f} Pa")
-    imp = mean("normal_force", 0, 0.05) * 0.05
-    print(f"  impulse of the normal force over +[0, 50] ms: {imp:.3f} N s/m")
+              f"{mean('shear', a / 1e3, b / 1e3):6.1f} N/m  p_foot {mean('p_foot', a / 1e3, b / 1e3):7.0f} Pa"
+              + note)
+    part = covered(0.0, 50.0)
+    imp = mean("normal_force", 0, part / 1e3) * part / 1e3 if part > 0 else 0.0
+    print(f"  impulse of the normal force over +[0, {part:.1f}] ms: {imp:.3f} N s/m"
+          + ("" if part >= 50.0 - 1e-9 else " (the run ends before +50 ms)"))
     last = rows[-1]
     hyd = 0.5 * rho * g * math.cos(zeta) * last["depth"] ** 2
     print(f"  final: depth {last['depth']:.4f} m, force {last['force']:.1f} N/m = "

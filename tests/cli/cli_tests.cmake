@@ -364,9 +364,9 @@ add_test(NAME cli.benchmark_quick
 set_tests_properties(cli.benchmark_quick PROPERTIES LABELS "cli" TIMEOUT 300)
 
 # The scripts refuse what they cannot honour with exit 2, naming the option, the value and what
-# is allowed, before any run (an independent run, session 32: tracebacks, a cell size of 0
+# is allowed, before any run (two independent runs, session 32: tracebacks, a cell size of 0
 # running the scenes' own grid, times between outputs taken as the nearest, a second run
-# directory ignored, windows A >= B giving nan means)
+# directory ignored, windows A >= B giving nan means, a report without its reference)
 function(granflow_script_test name expected_code regex script)
   string(REPLACE ";" " " _args "${PROJECT_SOURCE_DIR}/scripts/${script};${ARGN}")
   add_test(NAME cli.${name}
@@ -376,11 +376,13 @@ function(granflow_script_test name expected_code regex script)
            WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
   set_tests_properties(cli.${name} PROPERTIES LABELS "cli")
 endfunction()
-granflow_script_test(pareto_cells_zero 2 "--cells 0: allowed: one or more cell sizes > 0 mm"
+granflow_script_test(pareto_cells_zero 2 "--cells 0: allowed: one or more cell sizes in .0.001, 100. mm"
                      pareto.py ${CMAKE_BINARY_DIR} script_refusals --cells 0)
-granflow_script_test(pareto_times_off_grid 2 "--times 0.15: not multiples of --interval 0.1 s"
+granflow_script_test(pareto_without_reference 2 "--methods dam: allowed: a list that holds full"
+                     pareto.py ${CMAKE_BINARY_DIR} script_refusals --methods dam)
+granflow_script_test(pareto_times_off_grid 2 "--times 0.15: not multiples of --interval 0.1 s .nor the --end time."
                      pareto.py ${CMAKE_BINARY_DIR} script_refusals --interval 0.1 --times 0.15 0.2)
-granflow_script_test(compare_layouts_cell_zero 2 "--cell 0: allowed: a number > 0"
+granflow_script_test(compare_layouts_cell_zero 2 "--cell 0: allowed: a number >= 0.001"
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --cell 0)
 granflow_script_test(compare_layouts_unknown_set 1 "--set 'Bogus=1': the dynamic scene has no parameter"
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --set Bogus=1)

@@ -83,9 +83,15 @@ foreach(bad "--average-length;5;allowed: a length in \\(0, 1\\] m" "--average-le
     message(FATAL_ERROR "compare ${opt} ${val}: exit ${code}, '${err}', or files left behind")
   endif()
 endforeach()
+# a negative time is a value of --times, refused as such (it was taken for an unknown option)
+execute_process(COMMAND ${STUDY} compare coupled_check_ndam coupled_check_coupled --times 0.25 -0.2
+                RESULT_VARIABLE code OUTPUT_QUIET ERROR_VARIABLE err)
+if(NOT code EQUAL 2 OR NOT err MATCHES "--times -0.2: allowed: output times >= 0 s")
+  message(FATAL_ERROR "compare --times 0.25 -0.2: exit ${code}, '${err}'")
+endif()
 execute_process(COMMAND ${STUDY} compare coupled_check_ndam coupled_check_coupled --times 1e-400
                 RESULT_VARIABLE code OUTPUT_QUIET ERROR_VARIABLE err)
-if(NOT code EQUAL 2 OR NOT err MATCHES "needs a number a double can hold, got '1e-400'")
+if(NOT code EQUAL 2 OR NOT err MATCHES "needs a decimal number a double can hold, got '1e-400'")
   message(FATAL_ERROR "compare --times 1e-400: exit ${code}, '${err}'")
 endif()
 # Where the reference has no flowing point (here --h-min above every depth; also t = 0 before

@@ -2,9 +2,11 @@
 """ctest: a restarted run continues bit for bit through the app (issue 13 item 3, issue 10 item
 4). For each shipped scene given (at 10 mm in a 0.3 m box, Interval 0.1 s): a straight run to 0.8 s, a run to
 0.6 s, and a restart from its checkpoint to 0.8 s; the restarted run's profiles.csv rows at
-0.7 and 0.8 s must equal the straight run's byte for byte (the same steps, the same state: the
-checkpoint holds everything the next step reads; the profiles are written with round-trip
-precision, so a difference in the last bit of any h or u_mean shows).
+0.7 and 0.8 s must equal the straight run's byte for byte and every field of its fields.h5
+snapshots there (u, w, p, nu_eff, flags, the DAM's h and hu: full double precision, since
+profiles.csv holds 10 significant digits) the straight run's exactly (the same steps, the same
+state: the checkpoint holds everything the next step reads, and the straight run drops its
+lagged preconditioners where it writes a checkpoint, Stepper::restart_point).
 
   restart_exact.py GRANFLOW WORKDIR SCENE.xml ...
 With NP=2 in the environment the runs are on two ranks, where the full 2D box splits its slabs
@@ -21,6 +23,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from scene_edit import edit  # noqa: E402
+from fields_compare import max_difference  # noqa: E402
 
 exe, work, scenes = sys.argv[1], sys.argv[2], sys.argv[3:]
 np_ = int(os.environ.get("NP", "1"))
@@ -73,6 +76,12 @@ for scene in scenes:
             if not a or len(a) != len(b) or diff:
                 failed.append(f"{base}: the restarted run differs from the straight run at t = {t} s "
                               f"({diff} of {len(a)} rows)")
+        worst, where = max_difference(os.path.join(d, "straight", "fields.h5"),
+                                      os.path.join(d, "second", "fields.h5"), (0.7, 0.8))
+        print(f"{base}: fields.h5 at 0.7 and 0.8 s: largest difference {worst} ({where})")
+        if worst is None or worst != 0.0:
+            failed.append(f"{base}: the restarted run's fields differ from the straight run's: "
+                          f"{worst} ({where})")
         # the record of the layout: summary.json's layout at every output and the domain
         # manager's moves with their layouts (a restart kept only the moves' numbers, and the
         # layout history began at the restart; an independent run, 2026-12-05)
