@@ -104,6 +104,22 @@ def reusable(build, scene, text, summary, statuses=("completed",)):
             and json.load(open(summary)).get("status") in statuses)
 
 
+def check_scene(build, args):
+    """The dynamic variant (the one --set edits) through `granflow --check` before any run: an
+    unknown --set name exits here, a value granflow refuses (e.g. 'Check interval=abc', found
+    after three runs before; an independent run) exits with granflow's message and code 2."""
+    text, _ = variant_xml(args.family, "dynamic", args, args.outdir)
+    os.makedirs(args.outdir, exist_ok=True)
+    scene = os.path.join(args.outdir, "dynamic.check.xml")
+    open(scene, "w").write(text)
+    p = subprocess.run([os.path.join(build, "apps", "granflow"), "--check", scene],
+                       stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    os.remove(scene)
+    if p.returncode != 0:
+        print(p.stdout[-2000:], file=sys.stderr)
+        raise SystemExit(2)
+
+
 def run_variant(build, family, variant, args, outdir):
     text, d = variant_xml(family, variant, args, outdir)
     os.makedirs(outdir, exist_ok=True)
@@ -238,7 +254,7 @@ def main():
     if args.cell is not None and args.cell > coarsest:
         ap.error("--cell %g: allowed: a cell size in [0.001, %g] mm (10 cells along the channel "
                  "or more)" % (args.cell, coarsest))
-    variant_xml(args.family, "dynamic", args, args.outdir)  # refuses an unknown --set name
+    check_scene(os.path.abspath(args.build), args)  # an unknown --set name or a bad value
     variants = [v for v in VARIANTS if v in set(args.variants) | {"full", "dynamic"}]
     build = os.path.abspath(args.build)
     L = FAMILIES[args.family]["length"]

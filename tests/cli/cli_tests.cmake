@@ -386,6 +386,8 @@ granflow_script_test(compare_layouts_cell_zero 2 "--cell 0: allowed: a number >=
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --cell 0)
 granflow_script_test(compare_layouts_unknown_set 1 "--set 'Bogus=1': the dynamic scene has no parameter"
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --set Bogus=1)
+granflow_script_test(compare_layouts_bad_set_value 2 "Decomposition->Margin' = .abc.: not a decimal number"
+                     compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --set Margin=abc)
 granflow_script_test(find_holes_two_directories 2 "unrecognized arguments: b"
                      find_holes.py a b)
 granflow_script_test(wall_series_reversed_window 2 "'5:0': allowed: 0 <= A < B ms"
