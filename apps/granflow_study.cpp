@@ -132,13 +132,14 @@ int compare_cmd(int argc, char** argv) {
   const auto test = read_profiles(test_dir + "/profiles.csv");
   // Runs of different channels have no common profile to compare (a 1 m chute against the 2 m
   // lab chute gave a table of errors and exit 0): their ends must agree to half a cell.
+  // (start, end, widest end cell) of a run's channel from its profile points
+  auto ends = [](const ProfileAt& p) {
+    const std::size_t n = p.x.size();
+    if (n < 2) return std::array<double, 3>{0.0, 0.0, 0.0};
+    const double d0 = p.x[1] - p.x[0], d1 = p.x[n - 1] - p.x[n - 2];
+    return std::array<double, 3>{p.x[0] - 0.5 * d0, p.x[n - 1] + 0.5 * d1, std::max(d0, d1)};
+  };
   if (!ref.empty() && !test.empty()) {
-    auto ends = [](const ProfileAt& p) {
-      const std::size_t n = p.x.size();
-      if (n < 2) return std::array<double, 3>{0.0, 0.0, 0.0};
-      const double d0 = p.x[1] - p.x[0], d1 = p.x[n - 1] - p.x[n - 2];
-      return std::array<double, 3>{p.x[0] - 0.5 * d0, p.x[n - 1] + 0.5 * d1, std::max(d0, d1)};
-    };
     const auto er = ends(ref.begin()->second), et = ends(test.begin()->second);
     const double tol = 0.5 * std::max(er[2], et[2]);
     if (std::abs(er[0] - et[0]) > tol || std::abs(er[1] - et[1]) > tol) {
@@ -159,9 +160,7 @@ int compare_cmd(int argc, char** argv) {
   if (!(h_min >= 0.0)) return refuse("--h-min", h_min, "a depth >= 0 m");
   if (!(u_min >= 0.0)) return refuse("--u-min", u_min, "a speed >= 0 m/s");
   if (!ref.empty()) {
-    const ProfileAt& p0 = ref.begin()->second;
-    const std::size_t n = p0.x.size();
-    const double x_end = n >= 2 ? p0.x[n - 1] + 0.5 * (p0.x[n - 1] - p0.x[n - 2]) : 0.0;
+    const double x_end = ends(ref.begin()->second)[1];
     if (!(l > 0.0) || l > x_end * (1.0 + 1e-9))
       return refuse("--average-length", l,
                     "a length in (0, " + granflow::params::str(x_end) + "] m (the channel)");
@@ -186,41 +185,33 @@ int compare_cmd(int argc, char** argv) {
             << "     t [s] |  h max rel |   h L2 rel |  u max rel |   u L2 rel | pts | u(" << l
             << ") rel\n";
   for (double t : times) {
-    const ProfileAt* r = at_time(ref, t);
+    const ProfileAt* r = at_time(ref, t);  // both exist: checked above
     const ProfileAt* s = at_time(test, t);
-    if (!r || !s) {
-      std::cerr << "granflow-study: time " << t << " s is not an output time of both runs\n";
-      return 2;
-    }
     const auto e = compare(*r, *s, h_min, u_min);
     const double ar = average_velocity(*r, l), as = average_velocity(*s, l);
-    const double ra = ar != 0.0 ? std::abs(as - ar) / std::abs(ar) : 0.0;
     // No flowing point of the reference (e.g. t = 0, or --h-min above every depth): the
-    // relative errors are undefined, not 0; the CSV leaves them empty and the table says so.
-    auto value = [&](double v) {
+    // relative errors are undefined, not 0; the CSV leaves them empty and the table prints "-".
+    // The same for the averaged velocity where the reference's average is 0.
+    auto shown = [](bool defined, double v, int precision, const char* undefined) {
       std::ostringstream os;
-      os << std::setprecision(8);
-      if (e.h.points > 0) os << v;
+      os << std::setprecision(precision);
+      if (defined) os << v;
+      else os << undefined;
       return os.str();
     };
-    ce << t << ",h," << value(e.h.max_rel) << ',' << value(e.h.l2_rel) << ',' << e.h.points << '\n';
-    ce << t << ",u_mean," << value(e.u.max_rel) << ',' << value(e.u.l2_rel) << ',' << e.u.points
-       << '\n';
-    av << t << ',' << ar << ',' << as << ',';
-    if (ar != 0.0) av << std::abs(as - ar) / std::abs(ar);
-    av << '\n';
-    auto cell = [&](double v) {
-      std::ostringstream os;
-      os << std::setprecision(6);
-      if (e.h.points > 0) os << v;
-      else os << "-";
-      return os.str();
-    };
-    std::cout << std::setw(10) << t << " | " << std::setw(10) << cell(e.h.max_rel) << " | "
-              << std::setw(10) << cell(e.h.l2_rel) << " | " << std::setw(10) << cell(e.u.max_rel)
-              << " | " << std::setw(10) << cell(e.u.l2_rel) << " | " << std::setw(3) << e.h.points
+    const bool flowing = e.h.points > 0, averaged = ar != 0.0;
+    const double ra = averaged ? std::abs(as - ar) / std::abs(ar) : 0.0;
+    ce << t << ",h," << shown(flowing, e.h.max_rel, 8, "") << ','
+       << shown(flowing, e.h.l2_rel, 8, "") << ',' << e.h.points << '\n';
+    ce << t << ",u_mean," << shown(flowing, e.u.max_rel, 8, "") << ','
+       << shown(flowing, e.u.l2_rel, 8, "") << ',' << e.u.points << '\n';
+    av << t << ',' << ar << ',' << as << ',' << shown(averaged, ra, 8, "") << '\n';
+    std::cout << std::setw(10) << t << " | " << std::setw(10) << shown(flowing, e.h.max_rel, 6, "-")
+              << " | " << std::setw(10) << shown(flowing, e.h.l2_rel, 6, "-") << " | "
+              << std::setw(10) << shown(flowing, e.u.max_rel, 6, "-") << " | " << std::setw(10)
+              << shown(flowing, e.u.l2_rel, 6, "-") << " | " << std::setw(3) << e.h.points
               << " | ";
-    if (ar != 0.0) std::cout << ra << "\n";
+    if (averaged) std::cout << ra << "\n";
     else std::cout << "- (reference average 0)\n";
   }
   ce.close();
