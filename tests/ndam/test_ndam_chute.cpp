@@ -1001,16 +1001,27 @@ TEST(NdamChute, ThinningChuteFlowGainsSpeedByThePlugLaw) {
 // The Coulomb friction's Newton re-solves inside a step keep the step's first momentum
 // preconditioner (predict_velocity, LinearSystem::hold_preconditioner): every step's first
 // solve builds a fresh one, a re-solve builds one only when the held one stops being effective
-// or fails (a retry). Without the hold every solve builds one, i.e. setups = solves. The chute
-// with its spreading front re-solves the friction in most steps (measured below), so the two
-// counts are far apart (measured 58 setups for 60 steps and 108 solves); the bound allows 10 %
-// of the first solves to differ either way.
+// or fails (a retry). Without the hold every solve builds one, i.e. setups = solves. A plug
+// released from rest (the 3 cm layer on 40/25/35 deg at the CFL step) re-solves in its
+// start-up, where the tangent at u^n misses the step's mean factor of an accelerating base
+// (measured: 11 re-solves in 70 steps to 0.3 s, 70 setups, no retry).
+// (This test used the gate chute until a base sliding at the bound stopped counting its
+// round-off, |c_used| - 1 = 1e-15 .. 1e-12, as an overshoot: its many re-solves were those.)
 TEST(NdamChute, FrictionResolvesKeepTheStepsPreconditioner) {
-  FsCase c = gate_chute();
+  FsCase c;
+  c.nx = 4;
+  c.lx = 0.02;
+  c.nz = 24;
+  c.lz = 0.06;
+  c.depth = 0.03;
+  c.slope_deg = 40.0;
+  c.delta_deg = 25.0;
+  c.phi_deg = 35.0;
+  c.m_c = 100.0;
   auto s = make_fs(c);
   int steps = 0;
   while (s->time() < 0.3 - 1e-12) {
-    s->step(std::min(s->stable_dt(), 0.3 - s->time()));
+    s->step(std::min({s->stable_dt(), 0.01, 0.3 - s->time()}));
     ASSERT_TRUE(s->check().ok);
     s->accept();
     ++steps;
@@ -1025,11 +1036,12 @@ TEST(NdamChute, FrictionResolvesKeepTheStepsPreconditioner) {
               steps, st.momentum_solves, st.friction_solves, st.retired_momentum_setups,
               st.retired_preconditioner_retries);
   EXPECT_EQ(first, steps);
-  EXPECT_GT(st.friction_solves, steps / 3);  // the test means something: many re-solves
-  // each step's first solve builds a fresh one, except where the system has only trivial
-  // rows and needs no preconditioner (measured: 2 of 60 steps, the first ones at the gate)
-  EXPECT_GE(setups, first - first / 10);
-  EXPECT_LE(setups, first + first / 10 + retries);  // the re-solves keep it
+  // the test means something: re-solves in a tenth of the steps at least, so that building a
+  // preconditioner for each would exceed the bound below
+  EXPECT_GE(st.friction_solves, steps / 10);
+  // each step's first solve builds a fresh one (this system has no step of trivial rows only)
+  EXPECT_GE(setups, first);
+  EXPECT_LE(setups, first + retries);  // the re-solves keep it
 }
 
 // A checkpoint of a free-surface chute restores markers, gate accumulators and counters: the
