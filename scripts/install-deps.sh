@@ -7,6 +7,9 @@ pkgs=(
   trilinos-all-dev libptscotch-dev     # Trilinos 13.2 (its CMake targets need the full set)
   libhdf5-openmpi-dev hdf5-tools       # HDF5, the OpenMPI flavour that Trilinos links
   libeigen3-dev nlohmann-json3-dev libgtest-dev
+  libopenblas0-serial                  # BLAS/LAPACK behind Debian's alternatives in place of the
+                                       # reference one: Belos' orthogonalisation is dgemm (7 % of
+                                       # a 2D run); serial, the MPI ranks own the cores
   python3-matplotlib python3-h5py      # plotting scripts in scripts/
 )
 missing=()
