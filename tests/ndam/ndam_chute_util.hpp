@@ -207,6 +207,23 @@ inline FsCase gate_chute(const std::string& coupling = "Lagged") {
   return c;
 }
 
+/// The issue's 3 cm Drucker-Prager layer (issue 11 item 1) on a periodic Coulomb incline of
+/// nx x 24 cells of (lx / nx) x 2.5 mm, slope / delta / phi in deg, m_c = 100 s/m, released
+/// from rest.
+inline FsCase plug_3cm(double zeta, double delta, double phi, int nx = 4, double lx = 0.02) {
+  FsCase c;
+  c.nx = nx;
+  c.lx = lx;
+  c.nz = 24;
+  c.lz = 0.06;
+  c.depth = 0.03;
+  c.slope_deg = zeta;
+  c.delta_deg = delta;
+  c.phi_deg = phi;
+  c.m_c = 100.0;
+  return c;
+}
+
 /// The plug test of NdamCoulomb.PlugFromRestFollowsTheRegularisedLaw (see there) with the given
 /// 'Surface pressure': a 3 cm layer (4 x 24 cells of 5 x 2.5 mm, periodic) released from rest
 /// on three angle sets, at the CFL step and at half of it; u_mean within 1 % of the law at every
@@ -221,16 +238,7 @@ inline void expect_plug_from_rest_follows_law(const std::string& surface_pressur
     const auto law = plug_law(an.zeta, an.delta, 100.0, times);
     std::vector<double> err[2];
     for (int half = 0; half < 2; ++half) {
-      FsCase c;
-      c.nx = 4;
-      c.lx = 0.02;
-      c.nz = 24;
-      c.lz = 0.06;
-      c.depth = 0.03;
-      c.slope_deg = an.zeta;
-      c.delta_deg = an.delta;
-      c.phi_deg = an.phi;
-      c.m_c = 100.0;
+      FsCase c = plug_3cm(an.zeta, an.delta, an.phi);
       c.cfl = half ? 0.25 : 0.5;
       c.surface_pressure = surface_pressure;
       auto s = make_fs(c);

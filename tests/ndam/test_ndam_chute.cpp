@@ -565,15 +565,7 @@ TEST(NdamPlugLong, IssueGridConvergesAsDtHalves) {
   const auto law = plug_law(40, 25, 100.0, times);
   std::vector<std::vector<double>> u;
   for (double cfl : {0.5, 0.25, 0.125}) {
-    FsCase c;
-    c.nx = 8;
-    c.lx = 0.01;
-    c.nz = 24;
-    c.lz = 0.06;
-    c.depth = 0.03;
-    c.slope_deg = 40;
-    c.delta_deg = 25;
-    c.phi_deg = 35;
+    FsCase c = plug_3cm(40, 25, 35, 8, 0.01);
     c.cfl = cfl;
     auto s = make_fs(c);
     u.push_back(mean_u_at(*s, times, 0.01));
@@ -1008,17 +1000,7 @@ TEST(NdamChute, ThinningChuteFlowGainsSpeedByThePlugLaw) {
 // (This test used the gate chute until a base sliding at the bound stopped counting its
 // round-off, |c_used| - 1 = 1e-15 .. 1e-12, as an overshoot: its many re-solves were those.)
 TEST(NdamChute, FrictionResolvesKeepTheStepsPreconditioner) {
-  FsCase c;
-  c.nx = 4;
-  c.lx = 0.02;
-  c.nz = 24;
-  c.lz = 0.06;
-  c.depth = 0.03;
-  c.slope_deg = 40.0;
-  c.delta_deg = 25.0;
-  c.phi_deg = 35.0;
-  c.m_c = 100.0;
-  auto s = make_fs(c);
+  auto s = make_fs(plug_3cm(40.0, 25.0, 35.0));
   int steps = 0;
   while (s->time() < 0.3 - 1e-12) {
     s->step(std::min({s->stable_dt(), 0.01, 0.3 - s->time()}));
