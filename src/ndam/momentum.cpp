@@ -30,10 +30,11 @@ namespace {
 // at the bound, c = 1 - exp(-m_c |u|) = 1 in double above |u| = 0.37 m/s, reads
 // |c_used| - 1 = 1e-15 .. 1e-12 back from the ghost's arithmetic: tested against 0, that
 // round-off took a second solve in 1083 of the 1141 steps of Setup II at 2.6 mm, with a
-// residual of 1e-14 after the first; docs/validation.md, "Speed: the friction's round-off".) Then it iterates until the factor each face's
-// solve applied is within kFrictionTolerance of c_mean at the solution (units of the Coulomb
-// bound tan(delta) N; Newton converges quadratically, one or two more solves). At most
-// kFrictionMaxSolves solves per step; the last one's state is kept (counted in summary.json).
+// residual of 1e-14 after the first; docs/validation.md, "Speed: the friction's round-off".)
+// Then it iterates until the factor each face's solve applied is within kFrictionTolerance of
+// c_mean at the solution (units of the Coulomb bound tan(delta) N; Newton converges
+// quadratically, one or two more solves). At most kFrictionMaxSolves solves per step; the last
+// one's state is kept (counted in summary.json).
 // The start threshold leaves the small changes of a base at rest (or creeping) to the one
 // tangent solve: both share the steady states, and the tangent damps the step-to-step noise of
 // a resting deposit, which the mean (trapezoidal for the linear drag near u = 0) does not at a
