@@ -58,7 +58,9 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
     add_double(*pl, "Minimum length", d.min_length,
                "[m] A priori and Dynamic layouts: shorter 1D gaps and end pieces become 2D, and a "
                "2D subdomain is never made shorter than this. Dynamic: at least four slots (the "
-               "coarser of a 2D column and a 1D cell), checked when the model is built",
+               "coarser of a 2D column and a 1D cell), checked when the model is built; a 2D "
+               "subdomain gives back calm columns only while it keeps this length of material "
+               "(a front that has just entered it keeps the layer behind it)",
                0.0, 1e6);
     add_enum(*pl, "Initial layout", d.initial_layout,
              "Dynamic layout: where the run starts: Static ('Models' and 'Interfaces', e.g. the "

@@ -205,11 +205,23 @@ std::vector<Piece> DomainManager::target(const CoupledModel& model) {
     const double u_hi = slots_[static_cast<std::size_t>(r.s1 - 1)].u_mean;
     const bool keep_lo = anchored && u_lo + u_hi >= 0.0;
     const bool keep_hi = anchored && u_lo + u_hi < 0.0;
+    // 'Minimum length' counts the material the subdomain keeps (its wet slots), not only its
+    // extent: a 2D part that a front has just entered holds the front and the dry box ahead of
+    // it, and giving back the calm layer behind the front slot by slot left the 1D-to-2D
+    // interface one or two columns behind the front, whose inflow profile (eq. 25) then came
+    // from the front's own distorted column (with gravity 0, a layer that must translate at
+    // the gate's 0.37 m/s reached 0.64 m/s; an independent run, docs/validation.md)
     int lo = r.s0, hi = r.s1;
-    while (!keep_hi && hi - lo > min_slots && releasable(hi - 1))
+    int wet_kept = 0;
+    for (int q = lo; q < hi; ++q) wet_kept += wet[static_cast<std::size_t>(q)] ? 1 : 0;
+    while (!keep_hi && hi - lo > min_slots && wet_kept > min_slots && releasable(hi - 1)) {
       want[static_cast<std::size_t>(--hi)] = 0;
-    while (!keep_lo && hi - lo > min_slots && releasable(lo))
+      --wet_kept;  // (a releasable slot is wet)
+    }
+    while (!keep_lo && hi - lo > min_slots && wet_kept > min_slots && releasable(lo)) {
       want[static_cast<std::size_t>(lo++)] = 0;
+      --wet_kept;
+    }
   }
   // Minimum length: short 1D gaps and end pieces next to 2D become 2D; short new 2D subdomains
   // grow to the minimum (keeping the slots they have).

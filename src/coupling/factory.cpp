@@ -60,6 +60,14 @@ ndam::NdamConfig SubdomainFactory::ndam_config(double x0, double x1, Neighbours 
     cfg2.inflow = nullptr;
     cfg2.inflow_volume = nullptr;
     cfg2.wall_left = false;
+    // a Moving lid of the channel's closed left end belongs to x = 0, not to an interface,
+    // whose inflow it would drive (w = the lid's speed across the opening): the interface
+    // side takes the gate's tangential condition, w = 0 on the side
+    auto& left = cfg2.walls[static_cast<int>(ndam::Side::Left)];
+    if (left.kind == ndam::WallKind::MovingLid) {
+      left.kind = ndam::WallKind::NoSlip;
+      left.velocity = 0.0;
+    }
   }
   return cfg2;
 }

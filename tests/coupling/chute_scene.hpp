@@ -35,6 +35,7 @@ struct Chute {
   // column that reaches the top of the box stops the run (NdamSolver::check)
   double height = 0.3;
   double cfl = 0.5;  // N-DAM CFL
+  double gravity = -1.0;  // Material->Gravity [m/s^2]; < 0: the default (9.81)
   std::string ndam_extra;  // further N-DAM parameters or sublists (XML lines)
 
   std::string xml() const {
@@ -58,7 +59,10 @@ struct Chute {
   <ParameterList name="Material">
     <Parameter name="Internal friction angle" type="double" value="33"/>
     <Parameter name="Bed friction angle" type="double" value="22"/>
-    <Parameter name="Density" type="double" value="1440"/>
+    <Parameter name="Density" type="double" value="1440"/>)x" +
+         (gravity >= 0.0 ? "\n    <Parameter name=\"Gravity\" type=\"double\" value=\"" +
+                               std::to_string(gravity) + "\"/>"
+                         : std::string()) + R"x(
   </ParameterList>
   <ParameterList name="Channel">
     <Parameter name="Length" type="double" value=")x" + std::to_string(length) + R"x("/>
