@@ -171,7 +171,9 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
                       "tangentially with '" + side + " lid velocity'), Periodic (Left and "
                       "Right together only), or Coulomb (Bottom and Right only: the sliding law "
                       "(11)-(13) with delta = Material->Bed friction angle and 'Friction "
-                      "regularisation' m_c)",
+                      "regularisation' m_c). Not a Moving lid on a side that carries the "
+                      "gate (Left with Channel inflow); in a coupled channel a side that is an "
+                      "interface takes the interface's condition (a lid stays at x = 0)",
                kWallKinds);
       add_double(b, side + " lid velocity", dw.velocity,
                  std::string("[m/s] tangential velocity of a Moving lid on this side (") +
@@ -435,6 +437,14 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
       params::fail(where.sublist("Right boundary"), "Type", core::to_string(channel.right.type),
                    "the free-surface N-DAM chute; allowed: Outflow or Wall");
     if (channel.left.type == core::BoundaryType::Inflow) {
+      // The box's left side is the gate: its tangential condition (the w ghost) holds over the
+      // whole side, the opening included, so a lid there drove the inflow (w = -2 m/s in the
+      // gate column and u twice the inflow velocity at its foot; an independent run)
+      if (c.walls[0].kind == WallKind::MovingLid)
+        params::fail(b, "Left", "Moving lid",
+                     "the channel's left end is the gate (Channel->Left boundary: Type = "
+                     "Inflow), and the side's condition would act across the opening too; "
+                     "allowed: No-slip, Free-slip");
       const core::InflowSeries series = channel.left.inflow;
       c.inflow = [series](double t) {
         return std::array<double, 2>{series.depth(t), series.velocity(t)};

@@ -62,6 +62,21 @@ void check_dry_depth(const Teuchos::ParameterList& dam, const dam::DamConfig& cf
                      params::str(0.1 * h_in) + " m (a tenth of the inflow depth)");
 }
 
+// A sine wave of the initial condition must be resolved by the DAM's cells: with N cells a
+// wavenumber above N / 2 is sampled as another, longer wave (at a multiple of N every cell
+// centre sits on a zero and the layer starts uniform; an independent run), without a word.
+void check_sine_resolution(const Teuchos::ParameterList& p, const dam::DamConfig& cfg) {
+  const auto& ic = p.sublist("Initial condition");
+  if (ic.get<std::string>("Type") != "Sine wave") return;
+  const int k = ic.get<int>("Wavenumber");
+  if (2 * static_cast<long long>(k) > cfg.cells)
+    params::fail(ic, "Wavenumber", std::to_string(k),
+                 "the DAM's " + std::to_string(cfg.cells) +
+                     " cells (DAM->Cells) sample at most Cells / 2 wavelengths on the channel; a "
+                     "larger wavenumber is aliased to another wave; allowed: <= " +
+                     std::to_string(cfg.cells / 2) + ", or more cells");
+}
+
 void check_initial_material(const Teuchos::ParameterList& p, const Teuchos::ParameterList* uic,
                             const core::Channel& channel, const coupling::Decomposition& layout) {
   const auto d = layout.normalised(channel.length);
@@ -181,6 +196,18 @@ void check_output(const core::RunControl& rc, const ParameterList& out) {
   if (dir.find_first_not_of(" \t\r\n") == std::string::npos)
     params::fail(out, "Directory", params::shown(dir),
                  "empty; allowed: the path of a directory (created if missing)");
+  // The run writes a fixed set of files (run.json, summary.json, profiles.csv, fields.h5, ...)
+  // into its directory and replaces them on the next run: the filesystem root would take them
+  // (accepted before; as root a run wrote its six files into / ; an independent run).
+  {
+    std::error_code ec0;
+    const fs::path abs = fs::absolute(fs::path(dir), ec0).lexically_normal();
+    if (!ec0 && abs == abs.root_path())
+      params::fail(out, "Directory", params::shown(dir),
+                   "is the filesystem root, where the run would write and later replace its "
+                   "files; allowed: a directory of its own (e.g. output/<scene>, created if "
+                   "missing)");
+  }
   // The deepest part of the path that exists must be a directory: the rest is created.
   std::error_code ec;
   fs::path existing = fs::path(dir);
@@ -313,6 +340,7 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
     if (s.model == "Coupled") {
       const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));
       check_dry_depth(p.sublist("DAM"), cfg, channel);
+      check_sine_resolution(p, cfg);
       auto d = coupling::Decomposition::from_parameters(
           p.sublist("Decomposition"), channel,
           s.user->isSublist("Decomposition") ? &s.user->sublist("Decomposition") : nullptr);
@@ -402,6 +430,7 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
     if (s.model == "DAM") {
       const auto cfg = dam::DamConfig::from_parameters(p.sublist("DAM"));
       check_dry_depth(p.sublist("DAM"), cfg, channel);
+      check_sine_resolution(p, cfg);
       const auto phys = dam::DamPhysics::from(material, channel, cfg);
       auto dam = std::make_unique<dam::DamSolver>(0.0, channel.length, cfg, phys,
                                                   dam::DamBoundary::from(channel.left),

@@ -249,6 +249,21 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(moving_lid_without_speed setup2_ndam.xml
                        "N-DAM->Boundaries->Top' = Moving lid: needs 'Top lid velocity'"
                        --set "N-DAM->Boundaries->Top" "Moving lid")
+  # an independent run, 2026-12-06 (session 34): a lid on the gate's side drove the opening's
+  # inflow (w -2 m/s in the gate column), a sine wave above the DAM's Nyquist limit started as
+  # another wave, and the filesystem root took the run's files
+  granflow_mutant_test(moving_lid_on_gate setup2_coupled.xml
+                       "N-DAM->Boundaries->Left' = Moving lid: the channel's left end is the gate .*allowed: No-slip, Free-slip"
+                       --set "N-DAM->Boundaries->Left" "Moving lid"
+                       --add "N-DAM->Boundaries->Left lid velocity" double -2)
+  granflow_mutant_test(sine_above_nyquist setup2_dam.xml
+                       "Initial condition->Wavenumber' = 201: the DAM's 400 cells .*allowed: <= 200"
+                       --set "Initial condition->Type" "Sine wave"
+                       --add "Initial condition->Depth" double 0.05
+                       --add "Initial condition->Wavenumber" int 201)
+  granflow_mutant_test(output_root setup2_dam.xml
+                       "Output->Directory' = \"/\": is the filesystem root"
+                       --set "Output->Directory" "/")
   granflow_mutant_test(markers_without_free_surface ndam_cavity_re100.xml
                        "N-DAM->Markers per cell' = 8: a setting of the free surface, and 'Free surface' = false"
                        --add "N-DAM->Markers per cell" int 8)
