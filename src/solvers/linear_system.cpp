@@ -186,7 +186,7 @@ struct LinearSystem::Impl {
   // Work buffers of compress_rows() and end() in the number of rows, kept between assemblies
   // (malloc, free and memset were 3-4 % of a 2.6 mm Setup II run). The buffers in the number
   // of entries are not kept: they would hold a second copy of the pattern for the whole run
-  // (a 600 x 600 cavity's peak rose from about 320 to 363 MB).
+  // (the 256 x 256 cavity of cli.memory_estimate: its peak rose from 351 to 363 MB).
   std::vector<LO> buf_old_kept, buf_forced, buf_keep, buf_coupled;
   std::vector<char> buf_triv;
   std::vector<std::vector<GO>> buf_ask;
