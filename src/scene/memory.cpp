@@ -5,10 +5,13 @@
 //   per rank, libraries and MPI: 78 MB (smallest scenes)                          kBase
 //   DAM: 148 B per cell (1e6 cells 221 MB, 1e7 cells 1551 MB): h, hu, their
 //     tentative copies, the step's ~14 work arrays, the output's profile and fields  kDamCell
-//   N-DAM, explicit momentum, CG pressure with MueLu: 645 B per cell (cavity 512^2:
-//     249 MB): ~20 fields, pressure matrix and its AMG hierarchy                   kNdamCell
-//   implicit momentum (u, w interleaved, 2 rows per cell): 1090 B per cell for the
-//     matrix and its preconditioner (cavity 512^2: 749 MB) plus the GMRES basis,
+//   N-DAM, explicit momentum, CG pressure with MueLu: 1050 B per cell (cavity 512^2:
+//     361 MB, 256^2: 156 MB; 645 B before the assembly's emission record of the repeat
+//     path, about 50 B per matrix entry, linear_system.cpp, remeasured 2026-12-06): ~20
+//     fields, pressure matrix, its record and its AMG hierarchy                    kNdamCell
+//   implicit momentum (u, w interleaved, 2 rows per cell): 2080 B per cell for the
+//     matrix, its record and its preconditioner (cavity 512^2: 1119 MB, 256^2: 341 MB;
+//     1090 B before the record) plus the GMRES basis,
 //     (restart + 1) x 2 x 8 B (restart 10 instead of 50: -118 MB measured,
 //     -168 MB counted; Belos touches only the vectors it uses)                     kMomentumCell
 //   markers: 132 B each (Setup II chute 800 x 120, 2/3 full, 12 x 12 instead of 4 x 4
@@ -41,8 +44,8 @@ namespace granflow::scene {
 namespace {
 constexpr double kBase = 80e6;
 constexpr double kDamCell = 150.0;
-constexpr double kNdamCell = 645.0;
-constexpr double kMomentumCell = 1090.0;
+constexpr double kNdamCell = 1050.0;
+constexpr double kMomentumCell = 2080.0;
 constexpr double kMarker = 132.0;
 constexpr double kNewtonCell = 500.0;
 
