@@ -436,6 +436,20 @@ int budget_cmd(int argc, char** argv) {
     const auto ds = run_parameters(dam_run);
     if (ds.at("model") != "DAM")
       throw std::runtime_error("--dam " + dam_run + " is not a DAM run");
+    // The DAM run must be of the same channel: a Setup II DAM run (1 m, a wall) beside a Setup
+    // I 2D run (1.5 m) gave a budget over the stretch cut at 1 m, with exit 0 (an independent
+    // run, 2026-12-06). Length, slope and gravity must agree to round-off of their decimal form.
+    auto same = [&](const char* list, const char* name) {
+      const double a = param(sum, {list, name}), b = param(ds, {list, name});
+      if (std::abs(a - b) > 1e-12 * std::max({1.0, std::abs(a), std::abs(b)}))
+        throw std::runtime_error("--dam " + dam_run + " is a run of another channel: " + list +
+                                 "->" + name + " = " + granflow::params::str(b) + " against " +
+                                 granflow::params::str(a) + " in " + run +
+                                 "; allowed: a DAM run of the same scene");
+    };
+    same("Channel", "Length");
+    same("Channel", "Slope angle");
+    same("Material", "Gravity");
     granflow::core::Material mat;
     mat.gravity = param(ds, {"Material", "Gravity"});
     mat.internal_friction_deg = param(ds, {"Material", "Internal friction angle"});

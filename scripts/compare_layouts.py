@@ -15,8 +15,9 @@ four variants of the family at one resolution:
   dynamic  the domain manager, starting from the static layout
 and writes OUTDIR/comparison.md and comparison.csv: per output time the relative errors of h and
 u_mean against full 2D (L2 and max over the flowing part, h > 1 mm and |u| > 1 mm/s, as
-granflow-study compare), the deposit depth at the wall, the shock position (the upstream end of
-the material at rest next to the wall, |u_mean| < 0.05 m/s), and per run the mass defect, wall
+granflow-study compare), the deposit depth at the wall, the shock position (where the arriving
+material meets the material stopped at the wall: the steepest drop of u_mean over two columns
+downstream of the fastest flow, once the wall column has stopped, |u_mean| < 0.05 m/s), and per run the mass defect, wall
 time, steps and moves; plus the share of the full 2D run's material cells that lie in the
 dynamic run's 1D parts (the ideal saving) against the saving the dynamic run achieved; and
 OUTDIR/xt.png, an x-t picture of the depth field of the dynamic run with the interface positions
@@ -112,7 +113,9 @@ def check_scene(build, args):
     os.makedirs(args.outdir, exist_ok=True)
     scene = os.path.join(args.outdir, "dynamic.check.xml")
     open(scene, "w").write(text)
-    p = subprocess.run([os.path.join(build, "apps", "granflow"), "--check", scene],
+    # --overwrite as the run itself (run_variant): OUTDIR may hold another variant's run, which
+    # that run replaces (without it the check refused a changed --set; an independent run)
+    p = subprocess.run([os.path.join(build, "apps", "granflow"), "--check", "--overwrite", scene],
                        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     os.remove(scene)
     if p.returncode != 0:

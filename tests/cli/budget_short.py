@@ -4,6 +4,9 @@ An independent tester found the default stretch [0.3, 1.2] m printing rows beyon
 channel's end and "-nan" in the % column of dry bins; cut at L, a 0.25 m channel then left
 [0.3, 0.25] and was refused. Asserted: exit 0, the whole channel as the stretch ([0.000, 0.250]
 m, 25 columns), no nan anywhere in the report, and a stretch beyond L refused with exit 2.
+A second tester (2026-12-06) gave `--dam` a DAM run of another channel (Setup II's 1 m beside
+Setup I's 1.5 m): exit 0 and a DAM budget over the stretch cut at 1 m. Asserted: a DAM run of a
+0.5 m channel beside this 0.25 m run is refused with exit 2, naming Channel->Length.
 
   budget_short.py BUILD OUTDIR INPUTS
 """
@@ -55,4 +58,24 @@ bad = subprocess.run([study, "budget", os.path.join(out, "run"), "--stretch", "0
                      capture_output=True, text=True)
 if bad.returncode == 0 or "0 <= XA < XB <= L = 0.25 m" not in bad.stderr:
     sys.exit(f"a stretch beyond L was not refused: exit {bad.returncode}, {bad.stderr}")
+# a DAM run of another channel (0.5 m) given as --dam
+dam_tree = ET.parse(os.path.join(inputs, "setup2_dam.xml"))
+root = dam_tree.getroot()
+put(["Channel", "Length"], "double", "0.5")
+put(["DAM", "Cells"], "int", "50")
+put(["Time", "End time"], "double", "0.2")
+put(["Output", "Interval"], "double", "0.05")
+put(["Output", "Directory"], "string", os.path.join(out, "dam_other"))
+dam_scene = os.path.join(out, "dam_other.xml")
+dam_tree.write(dam_scene)
+run = subprocess.run([os.path.join(build, "apps", "granflow"), "--overwrite", dam_scene],
+                     capture_output=True, text=True)
+if run.returncode != 0:
+    sys.exit("granflow (DAM) failed:\n" + run.stderr[-2000:])
+other = subprocess.run([study, "budget", os.path.join(out, "run"), "--dam",
+                        os.path.join(out, "dam_other")], capture_output=True, text=True)
+if other.returncode != 2 or "run of another channel: Channel->Length = 0.5 against 0.25" \
+        not in other.stderr:
+    sys.exit(f"a DAM run of another channel was not refused: exit {other.returncode}, "
+             f"{other.stdout[-500:]} {other.stderr[-500:]}")
 print("budget on a 0.25 m channel: ok")
