@@ -120,8 +120,16 @@ int compare_cmd(int argc, char** argv) {
       // the values up to the next option (a negative time is a value, refused below; it was
       // taken for an unknown option '-0.2')
       double d = 0.0;
+      const std::size_t before = times.size();
       while (i + 1 < argc && (argv[i + 1][0] != '-' || parse_number(argv[i + 1], d)))
         times.push_back(number(a, argv[++i]));
+      // (without a value it compared every common output time, as if --times were not given;
+      // an independent run)
+      if (times.size() == before) {
+        std::cerr << "granflow-study: --times needs one or more output times [s]; allowed: "
+                     "--times T1 [T2 ...], or leave it out to compare every common output time\n";
+        return 2;
+      }
     } else if (a == "--h-min") h_min = number(a, next());
     else if (a == "--u-min") u_min = number(a, next());
     else if (a == "--average-length") l = number(a, next());

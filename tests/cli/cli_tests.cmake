@@ -197,6 +197,8 @@ granflow_study_test(compare_different_channels 2 "runs cover different channels"
                     compare ${_runs}/chute_1m ${_runs}/chute_2m --times 0.5 --out compare_different)
 granflow_study_test(compare_same_channel_finer 0 "u L2 rel"
                     compare ${_runs}/chute_1m ${_runs}/chute_1m_fine --times 0.5 --out compare_finer)
+granflow_study_test(compare_times_without_value 2 "--times needs one or more output times"
+                    compare ${_runs}/chute_1m ${_runs}/chute_1m_fine --times --out compare_times_empty)
 granflow_study_test(budget_reversed_window 2 "--from 1 s is not before --to 0.5 s"
                     budget ${_runs}/chute_1m --from 1.0 --to 0.5)
 
