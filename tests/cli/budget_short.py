@@ -18,33 +18,35 @@ import xml.etree.ElementTree as ET
 
 build, out, inputs = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(out, exist_ok=True)
-tree = ET.parse(os.path.join(inputs, "setup2_ndam.xml"))
-root = tree.getroot()
 
 
-def put(path, typ, value):
-    node = root
-    for name in path[:-1]:
-        node = node.find(f"ParameterList[@name='{name}']")
-    e = node.find(f"Parameter[@name='{path[-1]}']")
-    if e is None:
-        e = ET.SubElement(node, "Parameter", name=path[-1])
-    e.set("type", typ)
-    e.set("value", value)
+def make_run(base, name, settings):
+    """Runs inputs/BASE with the (path, type, value) settings into OUT/NAME; returns its dir."""
+    tree = ET.parse(os.path.join(inputs, base))
+    root = tree.getroot()
+    for path, typ, value in settings + [(["Output", "Directory"], "string",
+                                         os.path.join(out, name))]:
+        node = root
+        for lst in path[:-1]:
+            node = node.find(f"ParameterList[@name='{lst}']")
+        e = node.find(f"Parameter[@name='{path[-1]}']")
+        if e is None:
+            e = ET.SubElement(node, "Parameter", name=path[-1])
+        e.set("type", typ)
+        e.set("value", value)
+    scene = os.path.join(out, name + ".xml")
+    tree.write(scene)
+    run = subprocess.run([os.path.join(build, "apps", "granflow"), "--overwrite", scene],
+                         capture_output=True, text=True)
+    if run.returncode != 0:
+        sys.exit(f"granflow ({name}) failed:\n" + run.stderr[-2000:])
+    return os.path.join(out, name)
 
 
-put(["Channel", "Length"], "double", "0.25")
-put(["N-DAM", "Cells x"], "int", "25")
-put(["N-DAM", "Cells z"], "int", "15")
-put(["Time", "End time"], "double", "0.2")
-put(["Output", "Interval"], "double", "0.05")
-put(["Output", "Directory"], "string", os.path.join(out, "run"))
-scene = os.path.join(out, "short.xml")
-tree.write(scene)
-run = subprocess.run([os.path.join(build, "apps", "granflow"), "--overwrite", scene],
-                     capture_output=True, text=True)
-if run.returncode != 0:
-    sys.exit("granflow failed:\n" + run.stderr[-2000:])
+short = [(["Time", "End time"], "double", "0.2"), (["Output", "Interval"], "double", "0.05")]
+make_run("setup2_ndam.xml", "run", [(["Channel", "Length"], "double", "0.25"),
+                                    (["N-DAM", "Cells x"], "int", "25"),
+                                    (["N-DAM", "Cells z"], "int", "15")] + short)
 study = os.path.join(build, "apps", "granflow-study")
 b = subprocess.run([study, "budget", os.path.join(out, "run")], capture_output=True, text=True)
 print(b.stdout[-3000:], b.stderr[-1000:])
@@ -59,19 +61,8 @@ bad = subprocess.run([study, "budget", os.path.join(out, "run"), "--stretch", "0
 if bad.returncode == 0 or "0 <= XA < XB <= L = 0.25 m" not in bad.stderr:
     sys.exit(f"a stretch beyond L was not refused: exit {bad.returncode}, {bad.stderr}")
 # a DAM run of another channel (0.5 m) given as --dam
-dam_tree = ET.parse(os.path.join(inputs, "setup2_dam.xml"))
-root = dam_tree.getroot()
-put(["Channel", "Length"], "double", "0.5")
-put(["DAM", "Cells"], "int", "50")
-put(["Time", "End time"], "double", "0.2")
-put(["Output", "Interval"], "double", "0.05")
-put(["Output", "Directory"], "string", os.path.join(out, "dam_other"))
-dam_scene = os.path.join(out, "dam_other.xml")
-dam_tree.write(dam_scene)
-run = subprocess.run([os.path.join(build, "apps", "granflow"), "--overwrite", dam_scene],
-                     capture_output=True, text=True)
-if run.returncode != 0:
-    sys.exit("granflow (DAM) failed:\n" + run.stderr[-2000:])
+make_run("setup2_dam.xml", "dam_other", [(["Channel", "Length"], "double", "0.5"),
+                                         (["DAM", "Cells"], "int", "50")] + short)
 other = subprocess.run([study, "budget", os.path.join(out, "run"), "--dam",
                         os.path.join(out, "dam_other")], capture_output=True, text=True)
 if other.returncode != 2 or "run of another channel: Channel->Length = 0.5 against 0.25" \
