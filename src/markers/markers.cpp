@@ -312,39 +312,26 @@ std::array<double, 2> MarkerSet::velocity(const Field& u, const Field& w, double
   if (!(std::abs(gxc) < 1e9 && std::abs(gzc) < 1e9))
     throw std::runtime_error("markers: position (" + std::to_string(x) + ", " + std::to_string(z) +
                              ") is not finite or far outside the box");
+  // The bilinear sample of field f at the face (li, k) and its neighbours (li + 1, k + 1): the
+  // column li + 1 lies a stride on in f's storage.
   const std::size_t stride = static_cast<std::size_t>(nz + 2);  // Field's column length
-  // u on the grid x = (gi) dx (faces), z = (k + 1/2) dz: NaSt2D's u-grid shifted by dz/2.
-  double gx = gxc;
-  int fi = floor_int(gx);
-  int li = fi - 1 - slab_.i0;  // local index of the face at x = fi dx
-  double fx = gx - fi;
-  double gz = gzc - 0.5;
-  int k = floor_int(gz);
-  double fz = gz - k;
-  if (li < -G || li + 1 >= nxl + G || k < -1 || k + 1 > nz)
-    throw std::runtime_error("markers: position (" + std::to_string(x) + ", " + std::to_string(z) +
-                             ") outside the ghost layers of rank " + std::to_string(slab_.rank) +
-                             " (CFL > 1?)");
-  // (li, k); (li, k + 1) follows, column li + 1 a stride on
-  const double* c0 = u.data().data() + u.index(li, k);
-  const double uu = (1 - fx) * (1 - fz) * c0[0] + fx * (1 - fz) * c0[stride] +
-                    (1 - fx) * fz * c0[1] + fx * fz * c0[stride + 1];
-  // w on the grid x = (gi + 1/2) dx, z = k dz (faces): shifted by dx/2.
-  gx = gxc - 0.5;
-  fi = floor_int(gx);
-  li = fi - slab_.i0;
-  fx = gx - fi;
-  gz = gzc;
-  const int fk = floor_int(gz);
-  k = fk - 1;  // w(i, k) is the top face of cell k, at z = (k + 1) dz
-  fz = gz - fk;
-  if (li < -G || li + 1 >= nxl + G || k < -1 || k + 1 > nz)
-    throw std::runtime_error("markers: position (" + std::to_string(x) + ", " + std::to_string(z) +
-                             ") outside the ghost layers of rank " + std::to_string(slab_.rank) +
-                             " (CFL > 1?)");
-  const double* d0 = w.data().data() + w.index(li, k);
-  const double ww = (1 - fx) * (1 - fz) * d0[0] + fx * (1 - fz) * d0[stride] +
-                    (1 - fx) * fz * d0[1] + fx * fz * d0[stride + 1];
+  auto bilinear = [&](const Field& f, int li, int k, double fx, double fz) {
+    if (li < -G || li + 1 >= nxl + G || k < -1 || k + 1 > nz)
+      throw std::runtime_error("markers: position (" + std::to_string(x) + ", " +
+                               std::to_string(z) + ") outside the ghost layers of rank " +
+                               std::to_string(slab_.rank) + " (CFL > 1?)");
+    const double* c0 = f.data().data() + f.index(li, k);
+    return (1 - fx) * (1 - fz) * c0[0] + fx * (1 - fz) * c0[stride] + (1 - fx) * fz * c0[1] +
+           fx * fz * c0[stride + 1];
+  };
+  // u on the grid x = (gi) dx (faces), z = (k + 1/2) dz: NaSt2D's u-grid shifted by dz/2;
+  // (fi, k) is the face at x = fi dx, z = (k + 1/2) dz.
+  const int fi = floor_int(gxc), k = floor_int(gzc - 0.5);
+  const double uu = bilinear(u, fi - 1 - slab_.i0, k, gxc - fi, (gzc - 0.5) - k);
+  // w on the grid x = (gi + 1/2) dx, z = k dz (faces): shifted by dx/2; w(i, k) is the top face
+  // of cell k, at z = (k + 1) dz.
+  const int wi = floor_int(gxc - 0.5), wk = floor_int(gzc);
+  const double ww = bilinear(w, wi - slab_.i0, wk - 1, (gxc - 0.5) - wi, gzc - wk);
   return {uu, ww};
 }
 
@@ -375,7 +362,6 @@ void MarkerSet::advect(double dt, const Field& u0, const Field& w0, const Field&
   const auto inside = [lx, lz](double x, double z) {
     return x >= 0.0 && x < lx && z >= 0.0 && z < lz;
   };
-  const bool obstacles = std::find(obst_.begin(), obst_.end(), 1) != obst_.end();
   std::size_t keep = 0;
   for (std::size_t n = 0; n < m_.size(); ++n) {
     Marker m = m_[n];
@@ -389,7 +375,7 @@ void MarkerSet::advect(double dt, const Field& u0, const Field& w0, const Field&
     double xn = m.x + 0.5 * dt * (v0[0] + v1[0]);
     double zn = m.z + 0.5 * dt * (v0[1] + v1[1]);
     if (!inside(xn, zn)) wall(xn, zn);
-    if (obstacles && obstacle_at(xn, zn)) {
+    if (has_obstacles_ && obstacle_at(xn, zn)) {
       if (!obstacle_at(xn, m.z)) zn = m.z;
       else if (!obstacle_at(m.x, zn)) xn = m.x;
       else { xn = m.x; zn = m.z; }
@@ -416,6 +402,8 @@ int MarkerSet::global_column(double x) const {
   const int gi = floor_int(x / dx_);
   return std::clamp(gi, 0, grid_.nx - 1);
 }
+
+int MarkerSet::cell_row(double z) const { return std::clamp(floor_int(z / dz_), 0, grid_.nz - 1); }
 
 void MarkerSet::migrate() {
   if (slab_.ranks == 1) return;
@@ -455,7 +443,6 @@ void MarkerSet::migrate() {
 
 void MarkerSet::relocate(const std::vector<std::array<int, 4>>& moves) {
   if (moves.empty()) return;
-  const int nz = grid_.nz;
   for (const auto& [di, dk, ti, tk] : moves) {
     if (di < slab_.i0 || di >= slab_.i0 + slab_.nx_local) continue;
     const double xc = (ti + 0.5) * dx_, zc = (tk + 0.5) * dz_;
@@ -463,7 +450,7 @@ void MarkerSet::relocate(const std::vector<std::array<int, 4>>& moves) {
     double best_d = 0.0;
     for (Marker& m : m_) {
       if (global_column(m.x) != di ||
-          std::clamp(static_cast<int>(std::floor(m.z / dz_)), 0, nz - 1) != dk)
+          cell_row(m.z) != dk)
         continue;
       const double d = (m.x - xc) * (m.x - xc) + (m.z - zc) * (m.z - zc);
       if (!best || d < best_d || (d == best_d && m.id < best->id)) best = &m, best_d = d;
@@ -512,6 +499,8 @@ void MarkerSet::set_obstacles(const std::vector<CellFlag>& flags) {
     obst_[static_cast<std::size_t>((nxl + G) * nz + j)] =
         static_cast<char>(gr[static_cast<std::size_t>(j)]);
   }
+  // (once here, not per advection: most boxes have none, and advect() then skips the lookups)
+  has_obstacles_ = std::find(obst_.begin(), obst_.end(), 1) != obst_.end();
 }
 
 std::vector<int> MarkerSet::cell_counts() const {
@@ -519,7 +508,7 @@ std::vector<int> MarkerSet::cell_counts() const {
   std::vector<int> c(static_cast<std::size_t>(slab_.nx_local * nz), 0);
   for (const Marker& m : m_) {
     const int i = global_column(m.x) - slab_.i0;
-    const int k = std::clamp(floor_int(m.z / dz_), 0, nz - 1);
+    const int k = cell_row(m.z);
     if (i >= 0 && i < slab_.nx_local) ++c[static_cast<std::size_t>(i * nz + k)];
   }
   return c;

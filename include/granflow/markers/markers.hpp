@@ -230,6 +230,7 @@ class MarkerSet {
 
  private:
   int global_column(double x) const;  // floor(x / dx) clamped to [0, nx)
+  int cell_row(double z) const;       // floor(z / dz) clamped to [0, nz)
   bool obstacle_at(double x, double z) const;  // x within G columns of the slab
   void wall(double& x, double& z) const;       // reflect at wall/inflow sides
   void inject_rows(double dt, double h_in,
@@ -248,6 +249,7 @@ class MarkerSet {
   int left_ = MPI_PROC_NULL, right_ = MPI_PROC_NULL;  // neighbour ranks
   std::vector<Marker> m_;
   std::vector<char> obst_;  // (nx_local + 2G) * nz, column i + G
+  bool has_obstacles_ = false;  // an obstacle cell in obst_ (set_obstacles)
   std::vector<double> acc_;  // injection row accumulators
   /// seed() and seed_rectangle(): the lattice positions that `keep` accepts (lattice column
   /// and row over the whole box, the position's centre)
