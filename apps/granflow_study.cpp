@@ -224,6 +224,10 @@ int compare_cmd(int argc, char** argv) {
   }
   ce.close();
   av.close();
+  // A plot of an earlier comparison in the same directory would sit beside these CSVs as if it
+  // showed them (when the plot below fails or python3 is missing): it goes first.
+  std::error_code gone;
+  std::filesystem::remove(out + "/compare.png", gone);
   const std::string script = std::string(GRANFLOW_SCRIPTS_DIR) + "/plot_compare.py";
   std::cout.flush();
   if (std::filesystem::exists("/usr/bin/python3") && std::filesystem::exists(script)) {

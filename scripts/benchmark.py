@@ -146,11 +146,20 @@ def main():
     ap.add_argument("--end-time", type=float, default=0.75)
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--fresh", action="store_true")
+    ap.add_argument("--oversubscribe", action="store_true",
+                    help="allow --np above the machine's cores (the timings then measure the "
+                         "ranks' time sharing, not the code's parallel speed)")
     a = ap.parse_args()
     # a count below 1 has nothing to time (and a median of no runs is undefined)
     for name, value in (("--np", a.np), ("--repeat", a.repeat)):
         if value < 1:
             ap.error("%s = %d; allowed: an integer of at least 1" % (name, value))
+    # more ranks than cores time the scheduler's sharing of a core between ranks: a speed-up
+    # read from such a table would be the machine's, not the code's
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if cores and a.np > cores and not a.oversubscribe:
+        ap.error("--np = %d; allowed: at most the %d cores this process may use (or add "
+                 "--oversubscribe to time shared cores anyway)" % (a.np, cores))
     if not (a.end_time > 0.0 and math.isfinite(a.end_time)):
         ap.error("--end-time = %g; allowed: a finite time above 0 s" % a.end_time)
     if a.quick:

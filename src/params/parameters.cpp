@@ -809,6 +809,13 @@ XmlDocument parse_xml(const std::string& file) {
     throw InputError("scene file '" + file + "' is not a ParameterList XML file: its top element "
                      "is " + (doc.root.isEmpty() ? std::string("missing") : "<" + doc.root.getTag() + ">") +
                      "; allowed: <ParameterList name=\"granflow\">");
+  // Another program's parameter list (a MueLu or Belos file given by mistake) names its root
+  // list after itself; read as a scene, its messages would say granflow->... of a list that is
+  // not. A root without a name is Teuchos' own default and is read as granflow's.
+  if (doc.root.hasAttribute("name") && doc.root.getAttribute("name") != "granflow")
+    throw InputError("scene file '" + file + "': its top ParameterList is named " +
+                     shown(doc.root.getAttribute("name")) +
+                     "; allowed: <ParameterList name=\"granflow\"> (a granflow scene)");
   return doc;
 }
 

@@ -27,6 +27,8 @@ granflow_cli_test(unknown_option 1 "unknown option '--frobnicate'" --frobnicate)
 granflow_cli_test(missing_file 2 "cannot open scene file '.*does_not_exist.xml'"
                   ${_cli}/does_not_exist.xml)
 granflow_cli_test(malformed_xml 2 "bad_malformed.xml.* is not well-formed XML.*line 3" ${_cli}/bad_malformed.xml)
+granflow_cli_test(root_name 2 "bad_root_name.xml': its top ParameterList is named \"MueLu\"; allowed: <ParameterList name=\"granflow\">"
+                  ${_cli}/bad_root_name.xml)
 granflow_cli_test(misspelt_name 2 "Bed fricton angle.*(valid|Valid)" ${_cli}/bad_misspelt.xml)
 granflow_cli_test(wrong_type 2 "parameter .granflow->DAM->Cells. = .100\\.0.: given as type .double.; allowed: type .int."
                   ${_cli}/bad_wrong_type.xml)
