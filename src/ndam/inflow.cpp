@@ -148,20 +148,31 @@ double NdamSolver::inflow_face(int k) const {
 
 // Lagged gradient continued through an open outflow (NdamConfig::outflow_extrapolate): the
 // difference of the last two interior faces of row k in the current state u_, where both are
-// material faces; 0 otherwise (zero gradient) and on ranks that do not own the end. It is
-// bounded by kOutflowSlopeMax of the last face's speed: the accelerating chute the gradient is
-// there for changes by a dx / u^2 = 1.5 % per cell at the 2D -> 1D interface of Setup I (5 mm,
-// a = 5 m/s^2, u = 1.3 m/s; 3 % at 10 mm), and the shipped coupled scenes never reach the bound
-// (profiles identical). Unbounded, the lagged difference fed itself back where a deep viscous
-// layer reached the end of the gate's 2D part (nu = 0.3 m^2/s: 39-710 m/s in its last columns,
-// depending on the output interval; 2.3-2.8 m/s bounded; docs/validation.md, "Stability suite").
+// material faces and it is positive; 0 otherwise (zero gradient) and on ranks that do not own
+// the end. The accelerating chute it is there for changes by a dx / u^2 = 1.5 % per cell at the
+// 2D -> 1D interface of Setup I (5 mm, a = 5 m/s^2, u = 1.3 m/s; 3 % at 10 mm); with zero
+// gradient the last two or three columns there ran up to 4 % slow (Setup II coupled at 5 mm:
+// u_mean L2 2.6 % against full 2D at 0.75 s instead of 0.8 %).
+// Only an accelerating difference is continued. The projection takes the outflow face as given
+// (no phi flux through it), so an outflow slower than the interior leaves a divergence deficit
+// in the last cell that the projection removes by slowing the interior faces, which makes the
+// lagged difference more negative: a feedback. A layer released from rest on 25 deg (delta 22,
+// 2D [0, 1] / 1D [1, 2] m; an independent run, 2026-12-06) ran into the bound below within
+// 0.2 s and its rigid plug was braked whole: 0.75 / 0.64 of a t at t = 1 s at 5 / 2.5 mm (full
+// 2D 1.02), its bed pressure up to 2.2 times hydrostatic. With the difference taken at 0 or
+// above: 1.00-1.05 / 1.00-1.02; the shipped coupled scenes never continue a decelerating
+// difference (setup2_coupled.xml's profiles.csv identical). It is also bounded above by
+// kOutflowSlopeMax of the last face's speed: unbounded, the lagged difference fed itself back
+// where a deep viscous layer reached the end of the gate's 2D part (nu = 0.3 m^2/s: 39-710 m/s
+// in its last columns, depending on the output interval; 2.3-2.8 m/s bounded;
+// docs/validation.md, "Stability suite").
 constexpr double kOutflowSlopeMax = 0.05;
 double NdamSolver::outflow_slope(int k) const {
   const int nx = cfg_.grid.nx, i = nx - 2 - mac_.slab.i0;
   if (!cfg_.outflow_extrapolate || mac_.slab.i0 + mac_.slab.nx_local != nx || i - 1 < -Field::G) return 0.0;
   if (!mac_.u_unknown(i, k) || !mac_.u_unknown(i - 1, k)) return 0.0;
   const double bound = kOutflowSlopeMax * std::abs(u_(i, k));
-  return std::clamp(u_(i, k) - u_(i - 1, k), -bound, bound);
+  return std::clamp(u_(i, k) - u_(i - 1, k), 0.0, bound);
 }
 
 // eq. (26): p = g cos(zeta) (h - z) (1 + K) / 2 with h the inflow depth, at the row's centre

@@ -137,8 +137,9 @@ struct NdamConfig {
   double inflow_K = 1.0;  ///< earth pressure coefficient K of eq. (26)
   bool outflow_right = false;  ///< open outflow at x = x0 + L (else the Right wall)
   /// Open outflow: u continues beyond the last interior face with the lagged (t^n) gradient of
-  /// the last two interior faces instead of zero gradient (the 2D side of a 2D-to-1D interface
-  /// inside an accelerating flow; the channel's own open end keeps zero gradient).
+  /// the last two interior faces where it accelerates, instead of zero gradient (the 2D side of
+  /// a 2D-to-1D interface inside an accelerating flow; the channel's own open end keeps zero
+  /// gradient; NdamSolver::outflow_slope).
   bool outflow_extrapolate = false;
   double m_c = 100.0;  ///< [s/m] regularisation of the Coulomb friction factor (12)
   double x0 = 0.0;     ///< grid origin along the slope [m] (2D subdomains of the coupled model)
