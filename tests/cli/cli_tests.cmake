@@ -268,6 +268,10 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(output_root setup2_dam.xml
                        "Output->Directory' = \"/\": is the filesystem root"
                        --set "Output->Directory" "/")
+  granflow_mutant_test(viscous_surface_number_explicit setup2_coupled.xml
+                       "N-DAM->Viscous surface number' = 20: a step limit of the implicit momentum step, and 'Momentum' = Explicit"
+                       --set "N-DAM->Momentum" "Explicit"
+                       --add "N-DAM->Viscous surface number" double 20)
   granflow_mutant_test(markers_without_free_surface ndam_cavity_re100.xml
                        "N-DAM->Markers per cell' = 8: a setting of the free surface, and 'Free surface' = false"
                        --add "N-DAM->Markers per cell" int 8)
