@@ -344,7 +344,11 @@ bool DomainManager::adapt(CoupledModel& model) {
   // positions): nothing was handed on
   const bool gate_kept = rebuilt.front().ndam != nullptr;
   const double xa = parts[first].x0, xb = parts[last].x1;
+  const std::size_t built = rebuilt.size();
   model.replace_parts(first, last - first + 1, std::move(rebuilt));
+  // the rebuilt 2D parts, their interfaces connected: divergence-free before the next step
+  for (std::size_t p = first; p < first + built; ++p)
+    if (model.parts()[p].ndam) model.parts()[p].ndam->remove_divergence();
   if (first == 0 && !gate_kept) model.book_gate_inflow(gate_pending);
   model.place_settle_leftovers();
   // The momentum after the move, of the parts as they now run: rebuild() measured the new 2D

@@ -126,6 +126,11 @@ class NdamSolver final : public core::Stepper {
   NdamStatistics statistics() const;
   /// The state the next step reads (collective).
   NdamState export_state() const;
+  /// Makes u, w divergence-free in the pressure unknowns' cells by one projection that leaves p
+  /// as it is (collective): for a state assembled from converted columns (coupling::rebuild),
+  /// whose divergence the next step's projection would otherwise turn into a pressure of
+  /// div / dt and keep in p (the incremental update). Returns the largest |div u| before [1/s].
+  double remove_divergence();
   /// Global fields gathered on every rank, index gi * nz + k: u on the right face of cell
   /// (gi, k), w on its top face, p and nu_eff at its centre.
   std::vector<double> gather_u() const;
