@@ -19,7 +19,7 @@ namespace granflow::coupling {
 
 namespace {
 using Clock = std::chrono::steady_clock;
-constexpr int kMoveFields = 14;  // numbers per move in the checkpoint
+constexpr int kMoveFields = 15;  // numbers per move in the checkpoint
 
 std::string describe(const std::vector<Subdomain>& parts) {
   std::ostringstream os;
@@ -348,7 +348,9 @@ bool DomainManager::adapt(CoupledModel& model) {
   model.replace_parts(first, last - first + 1, std::move(rebuilt));
   // the rebuilt 2D parts, their interfaces connected: divergence-free before the next step
   for (std::size_t p = first; p < first + built; ++p)
-    if (model.parts()[p].ndam) model.parts()[p].ndam->remove_divergence();
+    if (model.parts()[p].ndam)
+      mv.record.divergence_removed =
+          std::max(mv.record.divergence_removed, model.parts()[p].ndam->remove_divergence());
   if (first == 0 && !gate_kept) model.book_gate_inflow(gate_pending);
   model.place_settle_leftovers();
   // The momentum after the move, of the parts as they now run: rebuild() measured the new 2D
@@ -389,7 +391,7 @@ void DomainManager::save(io::Checkpoint& c) const {
                            static_cast<double>(m.record.columns_to_2d),
                            static_cast<double>(m.record.columns_to_1d), m.seconds,
                            m.record.pending_to_1d, m.record.pending_lost,
-                           m.record.remainder_unplaced});
+                           m.record.remainder_unplaced, m.record.divergence_removed});
   c.set("manager/moves", rec);
   c.set("manager/move_fields", static_cast<double>(kMoveFields));
   // the layouts before and after each move, one line each (a restart read "(before the
@@ -437,6 +439,7 @@ void DomainManager::load(const io::Checkpoint& c) {
       m.record.pending_lost = rec[i + 12];
     }
     if (stride >= 14) m.record.remainder_unplaced = rec[i + 13];
+    if (stride >= 15) m.record.divergence_removed = rec[i + 14];
     m.before = m.after = "(before the restart)";
     log_.push_back(m);
   }
@@ -474,6 +477,7 @@ void DomainManager::report(nlohmann::json& s) const {
                      {"pending_inflow_lost", m.record.pending_lost},
                      {"columns_to_2d", m.record.columns_to_2d},
                      {"columns_to_1d", m.record.columns_to_1d},
+                     {"divergence_removed", m.record.divergence_removed},
                      {"seconds", m.seconds}});
   }
   s["domain_manager"] = {{"slot_width", slot_},

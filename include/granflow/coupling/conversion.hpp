@@ -68,6 +68,9 @@ struct ConversionRecord {
     return mass_after + remainder_to_inflow + remainder_unplaced - mass_before - pending_to_1d;
   }
   int columns_to_2d = 0, columns_to_1d = 0;  ///< 2D-column-sized slots that changed model
+  /// The largest |div u| of the rebuilt 2D parts as converted, which the move removes before
+  /// the next step (NdamSolver::remove_divergence) [1/s].
+  double divergence_removed = 0.0;
 };
 
 /// Rebuilds the parts [first, first + count) of `parts` as `plan` (covering the same interval;
