@@ -391,6 +391,16 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
     const fs::path p = fs::path(dir) / n;
     if (!kept(p)) plan.remove.push_back(p.string());
   }
+  // A copy of the directory's own checkpoint restarted from elsewhere is that rule's case too,
+  // and its history went without a word (an independent run: 4000 rows of profiles.csv).
+  if (restart && plan.same_scene && !plan.remove.empty()) {
+    std::string gone;
+    for (const auto& p : plan.remove) gone += (gone.empty() ? "" : ", ") + fs::path(p).filename().string();
+    plan.note = "the restart's checkpoint " + params::shown(keep) + " lies outside " +
+                params::shown(dir) + ", which holds a run of this scene: its files (" + gone +
+                ") are replaced, not continued, since they may be another trajectory's; to "
+                "continue them, restart from the checkpoint.h5 in that directory";
+  }
   return plan;
 }
 

@@ -77,7 +77,9 @@ Teuchos::RCP<const Teuchos::ParameterList> RunControl::getValidOutputParameters(
     add_string(*pl, "Restart from", d.restart_from,
                "checkpoint.h5 of an earlier run of the same scene to resume from (empty: start "
                "from the initial condition); relative to the current working directory, like "
-               "'Directory'");
+               "'Directory'. The directory's earlier files are continued (cut back to the "
+               "checkpoint time) only when the checkpoint lies in 'Directory'; from elsewhere "
+               "they are replaced, with a note on stderr");
     add_double(*pl, "Impact window", d.impact_window,
                "[s] channels that end at a wall (wall.csv, the wall load at every accepted "
                "step): summary.json reports as the impact peak the largest load within this "
@@ -694,6 +696,7 @@ int Simulation::run() {
       plan = plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
                             rc_.restart_from, params_);
       for (const auto& f : plan.remove) std::filesystem::remove(f);
+      if (!plan.note.empty()) std::cerr << "granflow: note: " << plan.note << "\n";
     } catch (const params::InputError& e) {
       err = e.what();
     } catch (const std::exception& e) {

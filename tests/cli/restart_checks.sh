@@ -120,6 +120,9 @@ scene "$SRC/restart_first.xml" mid.xml -e 's|value="restart_first"/>|value="mid"
 expect 0 "completed at t = 0.15 s" mid.xml
 base r_b.xml mid/checkpoint.h5 r_join
 expect 0 "completed at t = 0.2 s" r_b.xml                       # from mid's 0.15
+# ... and says so (an independent run lost 4000 rows without a word restarting from a copy of
+# the directory's own checkpoint): the note names the checkpoint, the directory and the files
+expect 0 "note: the restart's checkpoint \"mid/checkpoint.h5\" lies outside \"r_join\", which holds a run of this scene: its files \(.*profiles.csv.*\) are replaced" r_b.xml
 awk -F, 'NR > 1 && $1 <= 0.15 + 1e-12 { bad = 1 } END { exit bad }' r_join/profiles.csv ||
   fail "r_join/profiles.csv keeps rows at or before the checkpoint time 0.15 s of another history"
 grep -q '^0.2,' r_join/profiles.csv || fail "r_join/profiles.csv has no row at 0.2 s"

@@ -72,6 +72,9 @@ struct DirectoryPlan {
   /// the earlier files stay, cut back to the checkpoint time; a restart into another
   /// directory starts that directory's files afresh (rows of another history are not kept)
   bool continued = false;
+  /// Said on stderr when the run starts: a restart from a checkpoint outside the directory
+  /// into a directory that holds this scene's run, whose files are therefore replaced
+  std::string note;
 };
 
 /// Decide whether a run of identity `ours` (canonical lines `lines`) may write into `dir`:
