@@ -37,13 +37,16 @@ struct Chute {
   double cfl = 0.5;  // N-DAM CFL
   double gravity = -1.0;  // Material->Gravity [m/s^2]; < 0: the default (9.81)
   std::string ndam_extra;  // further N-DAM parameters or sublists (XML lines)
+  bool gate = true;  // the silo gate at x = 0 (h_in = 0.06 m, u_in = 0.37 m/s), else a wall
+  std::string left_side = "No-slip";  // N-DAM->Boundaries->Left (the gate's side)
+  std::string top_extra;  // further top-level lists (XML lines), e.g. an Initial condition
 
   std::string xml() const {
     const int nx = static_cast<int>(std::lround(length / cell));
     const std::string n = std::to_string(nx);
     std::string s = R"x(<ParameterList name="granflow">
   <Parameter name="Name" type="string" value=")x" + name + R"x("/>
-  <Parameter name="Model" type="string" value=")x" + model + R"x("/>)x";
+  <Parameter name="Model" type="string" value=")x" + model + R"x("/>)x" + top_extra;
     if (model == "Coupled")
       s += R"x(
   <ParameterList name="Decomposition">
@@ -67,10 +70,11 @@ struct Chute {
   <ParameterList name="Channel">
     <Parameter name="Length" type="double" value=")x" + std::to_string(length) + R"x("/>
     <Parameter name="Slope angle" type="double" value=")x" + std::to_string(slope) + R"x("/>
-    <ParameterList name="Left boundary">
+    <ParameterList name="Left boundary">)x" + (gate ? R"x(
       <Parameter name="Type" type="string" value="Inflow"/>
       <Parameter name="Inflow depth" type="double" value="0.06"/>
-      <Parameter name="Inflow velocity" type="double" value="0.37"/>
+      <Parameter name="Inflow velocity" type="double" value="0.37"/>)x" : R"x(
+      <Parameter name="Type" type="string" value="Wall"/>)x") + R"x(
     </ParameterList>
     <ParameterList name="Right boundary">
       <Parameter name="Type" type="string" value=")x" + (wall ? "Wall" : "Outflow") + R"x("/>
@@ -85,7 +89,7 @@ struct Chute {
     <Parameter name="Free surface" type="bool" value="true"/>
     <Parameter name="Friction regularisation" type="double" value="100"/>
     <ParameterList name="Boundaries">
-      <Parameter name="Left" type="string" value="No-slip"/>
+      <Parameter name="Left" type="string" value=")x" + left_side + R"x("/>
       <Parameter name="Right" type="string" value=")x" + (wall ? "Coulomb" : "Free-slip") + R"x("/>
       <Parameter name="Bottom" type="string" value="Coulomb"/>
       <Parameter name="Top" type="string" value="Free-slip"/>

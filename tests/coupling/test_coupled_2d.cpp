@@ -663,67 +663,35 @@ TEST(Coupled2D, AWallSeriesOnlyWhereAModelResolvesTheWall) {
 namespace {
 // A layer 0.02 m deep at rest on 25 deg (delta 22, phi 33 deg), a free-slip wall at x = 0 and an
 // open end at x = 2 m: full 2D ("N-DAM") or 2D [0, 1] / 1D [1, 2] m ("Coupled", the DAM part
-// starting from the same layer), cells of `cell` m in x and z.
-std::string plug_scene(const std::string& model, double cell, const std::string& name) {
-  const std::string nx = std::to_string(static_cast<int>(std::lround(2.0 / cell)));
-  const std::string nz = std::to_string(static_cast<int>(std::lround(0.05 / cell)));
-  std::string s = R"x(<ParameterList name="granflow">
-  <Parameter name="Name" type="string" value=")x" + name + R"x("/>
-  <Parameter name="Model" type="string" value=")x" + model + R"x("/>)x";
-  if (model == "Coupled")
-    s += R"x(
-  <ParameterList name="Decomposition">
-    <Parameter name="Models" type="Array(string)" value="{2D, 1D}"/>
-    <Parameter name="Interfaces" type="Array(double)" value="{1.0}"/>
-  </ParameterList>
-  <ParameterList name="DAM">
-    <Parameter name="Cells" type="int" value=")x" + nx + R"x("/>
-  </ParameterList>
+// starting from the same layer), cells of `cell` m in x and z, a box 0.05 m high.
+Chute plug_scene(const std::string& model, double cell, const std::string& name) {
+  Chute c;
+  c.name = name;
+  c.model = model;
+  c.models = "2D, 1D";
+  c.interfaces = "1.0";
+  c.length = 2.0;
+  c.slope = 25.0;
+  c.cell = cell;
+  c.height = 0.05;
+  c.gate = false;
+  c.left_side = "Free-slip";
+  c.end_time = 0.5;
+  c.ndam_extra = R"x(
+    <Parameter name="Initial depth" type="double" value="0.02"/>)x";
+  if (model == "Coupled") {
+    c.ndam_extra += R"x(
+    <Parameter name="Initial x0" type="double" value="0.0"/>
+    <Parameter name="Initial x1" type="double" value="1.0"/>)x";
+    c.top_extra = R"x(
   <ParameterList name="Initial condition">
     <Parameter name="Type" type="string" value="Dam break"/>
     <Parameter name="Left depth" type="double" value="0.0"/>
     <Parameter name="Right depth" type="double" value="0.02"/>
     <Parameter name="Position" type="double" value="1.0"/>
   </ParameterList>)x";
-  s += R"x(
-  <ParameterList name="Material">
-    <Parameter name="Internal friction angle" type="double" value="33"/>
-    <Parameter name="Bed friction angle" type="double" value="22"/>
-  </ParameterList>
-  <ParameterList name="Channel">
-    <Parameter name="Length" type="double" value="2.0"/>
-    <Parameter name="Slope angle" type="double" value="25.0"/>
-    <ParameterList name="Left boundary"><Parameter name="Type" type="string" value="Wall"/></ParameterList>
-    <ParameterList name="Right boundary"><Parameter name="Type" type="string" value="Outflow"/></ParameterList>
-  </ParameterList>
-  <ParameterList name="N-DAM">
-    <Parameter name="Cells x" type="int" value=")x" + nx + R"x("/>
-    <Parameter name="Cells z" type="int" value=")x" + nz + R"x("/>
-    <Parameter name="Height" type="double" value="0.05"/>
-    <Parameter name="Free surface" type="bool" value="true"/>
-    <Parameter name="Initial depth" type="double" value="0.02"/>)x" +
-       (model == "Coupled" ? R"x(
-    <Parameter name="Initial x0" type="double" value="0.0"/>
-    <Parameter name="Initial x1" type="double" value="1.0"/>)x" : "") + R"x(
-    <ParameterList name="Boundaries">
-      <Parameter name="Left" type="string" value="Free-slip"/>
-      <Parameter name="Right" type="string" value="Free-slip"/>
-      <Parameter name="Bottom" type="string" value="Coulomb"/>
-      <Parameter name="Top" type="string" value="Free-slip"/>
-    </ParameterList>
-  </ParameterList>
-  <ParameterList name="Rheology">
-    <Parameter name="Model" type="string" value="Drucker-Prager"/>
-    <Parameter name="Viscosity" type="double" value="0.003"/>
-  </ParameterList>
-  <ParameterList name="Output">
-    <Parameter name="Directory" type="string" value="out_)x" + name + R"x("/>
-  </ParameterList>
-</ParameterList>
-)x";
-  const std::string file = testing::TempDir() + name + ".xml";
-  std::ofstream(file) << s;
-  return file;
+  }
+  return c;
 }
 }  // namespace
 
@@ -745,8 +713,8 @@ std::string plug_scene(const std::string& model, double cell, const std::string&
 TEST(Coupled2D, TwoDToOneDInterfaceDoesNotBrakeAPlug) {
   for (const double cell : {0.005, 0.0025}) {
     const std::string tag = cell > 0.004 ? "5mm" : "2p5mm";
-    auto full = scene::build_model(scene::load(plug_scene("N-DAM", cell, "plug_full_" + tag)));
-    auto cpl = scene::build_model(scene::load(plug_scene("Coupled", cell, "plug_cpl_" + tag)));
+    auto full = plug_scene("N-DAM", cell, "plug_full_" + tag).build();
+    auto cpl = plug_scene("Coupled", cell, "plug_cpl_" + tag).build();
     double worst = 0.0, worst_t = 0.0;
     for (int n = 1; n <= 10; ++n) {
       const double t_out = 0.05 * n;
