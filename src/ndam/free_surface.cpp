@@ -66,10 +66,7 @@ void NdamSolver::surface_conditions() {
         p_dir_(i, k) = inflow_p26(k) - p_(i, k);  // eq. (26) as the Dirichlet value
     }
   mac_.exchange(p_dir_);
-  if (flags_changed_) {
-    assemble_pressure();
-    flags_changed_ = false;
-  }
+  assemble_pressure_if_flags_changed();
 }
 
 // Markers of the step (the tentative set): Heun's method in u^n and u^{n+1}, both with the

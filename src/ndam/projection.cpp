@@ -18,6 +18,12 @@ namespace granflow::ndam {
 
 using detail::Clock;
 
+void NdamSolver::assemble_pressure_if_flags_changed() {
+  if (!flags_changed_) return;
+  assemble_pressure();
+  flags_changed_ = false;
+}
+
 void NdamSolver::assemble_pressure() {
   const int nx = cfg_.grid.nx, nz = cfg_.grid.nz, nxl = mac_.slab.nx_local;
   const bool per = cfg_.periodic_x();
@@ -408,10 +414,7 @@ void NdamSolver::normalise_pressure(Field& p) const {
 // (DomainManager.ShortStepAfterAMoveDoesNotChangeTheRun).
 double NdamSolver::remove_divergence() {
   const double before = max_abs_divergence(u_, w_);
-  if (flags_changed_) {
-    assemble_pressure();
-    flags_changed_ = false;
-  }
+  assemble_pressure_if_flags_changed();
   Field dir(mac_.slab.nx_local, cfg_.grid.nz);  // (zero: no increment in the Dirichlet cells)
   std::swap(p_dir_, dir);
   Field phi;

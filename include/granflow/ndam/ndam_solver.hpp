@@ -335,6 +335,7 @@ class NdamSolver final : public core::Stepper {
   void fall_droplets(double dt, Field& us, Field& ws) const;  // Surface cells empty all round
   // --- projection.cpp: the pressure projection (eqs. 10, 14) ----------------------------------
   void assemble_pressure();
+  void assemble_pressure_if_flags_changed();  // the matrix of the current flags
   /// The farthest a pressure unknown lies from a Dirichlet cell, in cells (projection.cpp):
   /// the stiffness of the pressure preconditioner switch; kUnbounded without one.
   double dirichlet_distance() const;
