@@ -16,8 +16,10 @@ namespace {
 bool same_node(double a, double b) { return std::abs(a - b) <= 1e-12 * (1.0 + std::abs(a)); }
 
 // Below this |u_mean| a neighbouring 2D column is at rest and has no profile shape to lend:
-// a new column then starts as a plug (eq. 25 needs a moving profile) [m/s].
-constexpr double kShapeSpeed = 1e-3;
+// a new column then starts as a plug (eq. 25 needs a moving profile). In units of the grid's
+// gravity-wave speed sqrt(g cos(zeta) dz), so that a scene scaled by Froude similarity takes the
+// same branch: 0.9 mm/s at 5 mm cells on 50 deg (1 mm/s, a constant, before 2026-12-06).
+constexpr double kShapeSpeedWaves = 0.005;
 }  // namespace
 
 std::array<double, 2> ChannelField::integral(double a, double b) const {
@@ -490,7 +492,7 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
         const double unb = o.u_mean[static_cast<std::size_t>(nb.src_col[static_cast<std::size_t>(nbj)])];
         const double hnb = hcol[static_cast<std::size_t>(nbj)];
         const int knb = static_cast<int>(std::ceil(hnb / nb.dz));
-        if (std::abs(unb) > kShapeSpeed && knb >= 2 && h > 0.0)
+        if (std::abs(unb) > kShapeSpeedWaves * std::sqrt(gcos * nb.dz) && knb >= 2 && h > 0.0)
           for (int k = 0; k < nz; ++k) {
             const double zeta = std::min(1.0, (k + 0.5) * nb.dz / h);
             const double s = std::clamp(zeta * hnb / nb.dz - 0.5, 0.0, knb - 1.0);

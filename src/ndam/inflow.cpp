@@ -25,9 +25,10 @@ namespace {
 // side's). The opening takes the provider's |u_mean| and lets the step's mass in through its
 // depth, mass / (dt |u_mean|), up to kInflowDeepen times the provider's depth (at the DAM's tip
 // the reconstruction's depth at x_IF lags the flux that its ledger lets out); beyond that the
-// velocity rises, up to |u_mean| + kInflowSpeedupFloor. While the provider's u_mean is below the
-// floor (0.1 m/s, a few per cent of the chute's 0.4-3 m/s: a front arriving) the opening keeps
-// the provider's depth and the velocity carries the mass, up to the same cap. Before
+// velocity rises, up to |u_mean| + a speed floor. While the provider's u_mean is below the
+// floor (0.089 m/s at 5 mm cells on 50 deg, a few per cent of the chute's 0.4-3 m/s: a front
+// arriving) the opening keeps the provider's depth and the velocity carries the mass, up to the
+// same cap. Before
 // 2026-12-02 the velocity always carried the mass through the provider's depth; every
 // fluctuation of the step's mass then became one of the inflow velocity (below, the DAM's
 // averaging term), and the first 2D columns ran the slower the shorter the step (10 mm, a third
@@ -35,12 +36,17 @@ namespace {
 // took up to 1.5 |u_mean| + 0.1 m/s and the tip's first markers were the fastest cells of every
 // coupled run (5.05 m/s against the 4.48 m/s bound of the free-slip case; docs/validation.md,
 // "Stability suite").
-constexpr double kInflowSpeedupFloor = 0.1;  // [m/s]
 constexpr double kInflowDeepen = 1.5;
-// Below this inflow depth the step takes nothing: a film of 0.1 mm (1/50 of the 5 mm cells of
-// the paper's grids) would need u = mass / (dt h) far above the cap to carry the mass. What is
+// Below this inflow depth, in cells, the step takes nothing: a film of 1/50 of a cell (0.1 mm at
+// the paper's 5 mm) would need u = mass / (dt h) far above the cap to carry the mass. What is
 // not taken is carried to the next steps (pending mass), so no mass is lost.
-constexpr double kInflowMinDepth = 1e-4;  // [m]
+constexpr double kInflowMinDepthCells = 1.0 / 50.0;
+// The speed floor in units of the grid's gravity-wave speed sqrt(g cos(zeta) dz). Both
+// thresholds are in units of the grid, so that a scene scaled by Froude similarity (lengths x s,
+// times and speeds x sqrt(s)) takes the same branches: until 2026-12-06 they were 1e-4 m and
+// 0.1 m/s, and Setup II scaled by 4 departed by 4 % in h at 0.5 s where the DAM's tip arrived
+// (`DomainManager.FroudeScaledSetupIIIsTheScaledRun`).
+constexpr double kInflowSpeedupFloorWaves = 0.5;
 // A first interior column whose mean velocity is below this has no profile shape to copy
 // (eq. 25): it is at rest or empty, and the opening takes the uniform profile.
 constexpr double kShapeMinMean = 1e-12;  // [m/s]
@@ -80,19 +86,21 @@ void NdamSolver::gate_state(double dt) {
     if (const auto m = inflow_mass_(t_, dt)) {
       // Exact transfer: the step lets in what the upstream side let out (plus what earlier
       // steps could not take), at the DAM's u_mean through an opening whose depth the mass sets
-      // (up to kInflowDeepen h, then faster up to |u_mean| + kInflowSpeedupFloor), from a
-      // depth of at least kInflowMinDepth; the rest waits for the next steps. The DAM's
+      // (up to kInflowDeepen h, then faster up to |u_mean| + floor), from a depth of at least
+      // kInflowMinDepthCells dz; the rest waits for the next steps. The DAM's
       // averaging term (m->held) joins the held pool, of which the step lets in its share.
       const double h = inflow_now_[0], um = std::abs(inflow_now_[1]);
-      const double ucap = um + kInflowSpeedupFloor;
+      const double dz = cfg_.grid.dz();
+      const double floor = kInflowSpeedupFloorWaves * std::sqrt(std::abs(phys_.gz) * dz);
+      const double ucap = um + floor;
       const double pool = inflow_held_ + m->held;
       const double share = std::min(1.0, dt * ucap / cfg_.grid.dx());
       const double cap = std::max(kHeldRelease * std::abs(m->mass - m->held), std::abs(m->held));
       const double release = std::clamp(share * pool, -cap, cap);
       const double flowing = (m->mass - m->held) + inflow_owed_ + release;
       double u = 0.0, depth = h;
-      if (h > kInflowMinDepth && flowing > 0.0) {
-        if (um > kInflowSpeedupFloor) {  // eq. (24): the DAM's u_mean; the mass sets the depth
+      if (h > kInflowMinDepthCells * dz && flowing > 0.0) {
+        if (um > floor) {  // eq. (24): the DAM's u_mean; the mass sets the depth
           u = um;
           depth = flowing / (dt * u);
           if (depth > kInflowDeepen * h) {

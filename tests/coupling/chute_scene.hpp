@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -40,8 +41,42 @@ struct Chute {
   bool gate = true;  // the silo gate at x = 0 (h_in = 0.06 m, u_in = 0.37 m/s), else a wall
   std::string left_side = "No-slip";  // N-DAM->Boundaries->Left (the gate's side)
   std::string top_extra;  // further top-level lists (XML lines), e.g. an Initial condition
+  // Froude similarity: lengths x froude_scale, times and speeds x sqrt(froude_scale), with nu,
+  // m_c, m_y and every dimensional default the scene depends on (time-step bounds, the DAM's dry
+  // depth and earth-pressure switch, the domain manager's lengths, times and rest speed, the
+  // interface's mass relaxation) written out and scaled with them; the cell counts stay. Powers
+  // of four scale every operation exactly in binary floating point. The extra XML lines above
+  // are written as given (not scaled).
+  double froude_scale = 1.0;
 
   std::string xml() const {
+    const double L = froude_scale, T = std::sqrt(froude_scale), U = T;
+    // the shortest form that reads back as the same double (std::to_string's 6 decimals would
+    // lose a scaled 1e-6): 0.06 stays "0.06"
+    const auto num = [](double v) {
+      char b[32];
+      for (int digits = 6; digits <= 17; ++digits) {
+        std::snprintf(b, sizeof b, "%.*g", digits, v);
+        if (std::stod(b) == v) break;
+      }
+      return std::string(b);
+    };
+    const auto scaled = [&](const char* name, double v) {
+      return std::string("\n    <Parameter name=\"") + name + "\" type=\"double\" value=\"" +
+             num(v) + "\"/>";
+    };
+    // a comma-separated list of lengths, each times f (written as given when f = 1)
+    const auto scaled_list = [&](const std::string& list, double f) {
+      if (f == 1.0) return list;
+      std::string out;
+      std::size_t a = 0;
+      while (a < list.size()) {
+        const std::size_t b = std::min(list.find(',', a), list.size());
+        out += (out.empty() ? "" : ", ") + num(std::stod(list.substr(a, b - a)) * f);
+        a = b + 1;
+      }
+      return out;
+    };
     const int nx = static_cast<int>(std::lround(length / cell));
     const std::string n = std::to_string(nx);
     std::string s = R"x(<ParameterList name="granflow">
@@ -51,12 +86,24 @@ struct Chute {
       s += R"x(
   <ParameterList name="Decomposition">
     <Parameter name="Models" type="Array(string)" value="{)x" + models + R"x(}"/>
-    <Parameter name="Interfaces" type="Array(double)" value="{)x" + interfaces + R"x(}"/>
-    <Parameter name="Layout" type="string" value=")x" + layout + R"x("/>)x" + decomposition_extra + R"x(
+    <Parameter name="Interfaces" type="Array(double)" value="{)x" + scaled_list(interfaces, L) + R"x(}"/>
+    <Parameter name="Layout" type="string" value=")x" + layout + R"x("/>)x" +
+           (froude_scale != 1.0 ? scaled("Interface mass relaxation", 0.01 * T) : std::string()) +
+           (froude_scale != 1.0 && layout != "Static"
+                ? scaled("Margin", 0.05 * L) + scaled("Minimum length", 0.05 * L)
+                : std::string()) +
+           (froude_scale != 1.0 && layout == "Dynamic"
+                ? scaled("Hold time", 0.05 * T) + scaled("Check interval", 0.005 * T) +
+                      scaled("Rest speed", 0.05 * U)
+                : std::string()) +
+           decomposition_extra + R"x(
   </ParameterList>
   <ParameterList name="DAM">
     <Parameter name="Cells" type="int" value=")x" + std::to_string(nx * dam_cells_per_column) + R"x("/>
-    <Parameter name="Scheme" type="string" value="Beam-Warming"/>
+    <Parameter name="Scheme" type="string" value="Beam-Warming"/>)x" +
+           (froude_scale != 1.0 ? scaled("Dry depth", 1e-6 * L) +
+                                      scaled("Earth pressure smoothing", 0.1 / T)
+                                : std::string()) + R"x(
   </ParameterList>)x";
     s += R"x(
   <ParameterList name="Material">
@@ -68,12 +115,12 @@ struct Chute {
                          : std::string()) + R"x(
   </ParameterList>
   <ParameterList name="Channel">
-    <Parameter name="Length" type="double" value=")x" + std::to_string(length) + R"x("/>
+    <Parameter name="Length" type="double" value=")x" + num(length * L) + R"x("/>
     <Parameter name="Slope angle" type="double" value=")x" + std::to_string(slope) + R"x("/>
     <ParameterList name="Left boundary">)x" + (gate ? R"x(
       <Parameter name="Type" type="string" value="Inflow"/>
-      <Parameter name="Inflow depth" type="double" value="0.06"/>
-      <Parameter name="Inflow velocity" type="double" value="0.37"/>)x" : R"x(
+      <Parameter name="Inflow depth" type="double" value=")x" + num(0.06 * L) + R"x("/>
+      <Parameter name="Inflow velocity" type="double" value=")x" + num(0.37 * U) + R"x("/>)x" : R"x(
       <Parameter name="Type" type="string" value="Wall"/>)x") + R"x(
     </ParameterList>
     <ParameterList name="Right boundary">
@@ -83,11 +130,11 @@ struct Chute {
   <ParameterList name="N-DAM">
     <Parameter name="Cells x" type="int" value=")x" + n + R"x("/>
     <Parameter name="Cells z" type="int" value=")x" + std::to_string(std::lround(height / cell)) + R"x("/>
-    <Parameter name="Height" type="double" value=")x" + std::to_string(height) + R"x("/>
+    <Parameter name="Height" type="double" value=")x" + num(height * L) + R"x("/>
     <Parameter name="Momentum" type="string" value="Implicit"/>
     <Parameter name="CFL" type="double" value=")x" + std::to_string(cfl) + R"x("/>)x" + ndam_extra + R"x(
     <Parameter name="Free surface" type="bool" value="true"/>
-    <Parameter name="Friction regularisation" type="double" value="100"/>
+    <Parameter name="Friction regularisation" type="double" value=")x" + num(100 / U) + R"x("/>
     <ParameterList name="Boundaries">
       <Parameter name="Left" type="string" value=")x" + left_side + R"x("/>
       <Parameter name="Right" type="string" value=")x" + (wall ? "Coulomb" : "Free-slip") + R"x("/>
@@ -97,12 +144,13 @@ struct Chute {
   </ParameterList>
   <ParameterList name="Rheology">
     <Parameter name="Model" type="string" value="Drucker-Prager"/>
-    <Parameter name="Viscosity" type="double" value="0.003"/>
+    <Parameter name="Viscosity" type="double" value=")x" + num(0.003 * L * L / T) + R"x("/>
     <Parameter name="Yield stress" type="double" value="0"/>
-    <Parameter name="Regularisation" type="double" value="100"/>
+    <Parameter name="Regularisation" type="double" value=")x" + num(100 * T) + R"x("/>
   </ParameterList>
   <ParameterList name="Time">
-    <Parameter name="End time" type="double" value=")x" + std::to_string(end_time) + R"x("/>
+    <Parameter name="End time" type="double" value=")x" + num(end_time * T) + R"x("/>)x" +
+         (froude_scale != 1.0 ? scaled("Max time step", 0.01 * T) : std::string()) + R"x(
   </ParameterList>
   <ParameterList name="Output">
     <Parameter name="Directory" type="string" value="out_)x" + name + R"x("/>
