@@ -214,7 +214,11 @@ Teuchos::RCP<const Teuchos::ParameterList> Channel::getValidParameters() {
                              "Upstream end x = 0 (the silo gate in the paper's setups)");
     add_enum(left, "Type", to_string(d.left.type),
              "Inflow: prescribed depth and mean velocity (constant or series file); Outflow: "
-             "open end (zero gradient); Wall: rigid closed end; Periodic: both ends periodic",
+             "open end (zero gradient: the channel continues beyond the end with the end "
+             "cell's state, so where the flow there points into the channel material enters, "
+             "as from the endless reservoir of a dam break on an incline; a finite release "
+             "whose tail leaves the end needs a Wall there); Wall: rigid closed end; Periodic: "
+             "both ends periodic",
              kLeftTypes);
     add_double(left, "Inflow depth", d.left.inflow.depth(0.0),
                "h_in [m]: opening of the silo gate (Inflow only)", 0.0, kMaxInflowDepth);
@@ -231,8 +235,9 @@ Teuchos::RCP<const Teuchos::ParameterList> Channel::getValidParameters() {
                "Replaces 'Inflow depth' and 'Inflow velocity' (Inflow only)");
     auto& right = pl->sublist("Right boundary", false, "Downstream end x = L");
     add_enum(right, "Type", to_string(d.right.type),
-             "Outflow: open end (zero gradient); Wall: rigid perpendicular wall; Periodic: "
-             "both ends periodic",
+             "Outflow: open end (zero gradient: the channel continues beyond the end with the "
+             "end cell's state, so a flow turned back into the channel there takes material "
+             "in); Wall: rigid perpendicular wall; Periodic: both ends periodic",
              kRightTypes);
     return pl;
   }();

@@ -480,13 +480,20 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
   } else if (ch_periodic != pl_ ||
              (!ch_periodic && (channel.left.type != core::BoundaryType::Wall ||
                                channel.right.type != core::BoundaryType::Wall))) {
-    Teuchos::ParameterList where("Channel");
+    // (the full path in the message, as every other input error gives it)
+    Teuchos::ParameterList root("granflow");
+    Teuchos::ParameterList& where = root.sublist("Channel");
     params::fail(where.sublist("Left boundary"), "Type", core::to_string(channel.left.type),
-                 std::string("the N-DAM box ") +
-                     (pl_ ? "is periodic along x, so both channel ends must be Periodic"
-                          : "is closed at x = 0 and x = L, so both channel ends must be Wall") +
-                     " (inflow and outflow come with the coupled model); allowed: " +
-                     (pl_ ? "Periodic" : "Wall"));
+                 std::string("the channel ends and the N-DAM box's sides must agree: ") +
+                     (pl_ ? "the box is periodic along x (N-DAM->Boundaries->Left and Right = "
+                            "Periodic); allowed: Periodic, or sides that are not Periodic"
+                          : ch_periodic
+                                ? "the box is closed at x = 0 and x = L; allowed: Wall (a "
+                                  "gate or an open end needs 'Free surface' true), or "
+                                  "N-DAM->Boundaries->Left and Right = Periodic for a periodic "
+                                  "channel"
+                                : "the box is closed at x = 0 and x = L; allowed: Wall (a "
+                                  "gate or an open end needs 'Free surface' true)"));
   }
   // Obstacles: "x0 x1 z0 z1; ..."
   {

@@ -208,6 +208,17 @@ void NdamSolver::rest_state() {
                  h0 = cfg_.initial_depth;
     if (h0 > 0.0) markers_->seed_rectangle(xa, xb, h0);
     mass0_ = markers_->mass().area;
+    // A layer too thin (or too short) for one marker would start an empty box without a word
+    // (an independent run: 'Initial depth' 1e-9 m, exit 0, mass 0).
+    if (h0 > 0.0 && mass0_ == 0.0)
+      throw params::InputError(
+          "parameter 'granflow->N-DAM->Initial depth' = " + params::str(h0) +
+          ": the layer on [" + params::str(cfg_.initial_x0) + ", " +
+          params::str(cfg_.initial_x1) + ") m holds no marker (markers carry dx dz / " +
+          std::to_string(cfg_.markers_per_cell * cfg_.markers_per_cell) +
+          " each); allowed: 0 (no layer), or a layer of at least one marker's area, e.g. a "
+          "depth >= dz / 'Markers per cell' = " +
+          params::str(cfg_.grid.dz() / cfg_.markers_per_cell) + " m");
     marker_mass_ = markers_->mass();
     update_flags(*markers_, mac_.flags, mac_.empty_mask, mac_.depth);
     mac_.classify_surface_pressure();

@@ -268,6 +268,16 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(output_root setup2_dam.xml
                        "Output->Directory' = \"/\": is the filesystem root"
                        --set "Output->Directory" "/")
+  # an independent run, 2026-12-06 (session 36): an initial layer thinner than a marker row
+  # started an empty box with exit 0, and periodic channel ends on a box with closed sides were
+  # refused with "must be Wall", which hid that the box's sides can be made periodic
+  granflow_mutant_test(layer_without_markers ndam_column_collapse.xml
+                       "N-DAM->Initial depth' = 1e-09: the layer on .* holds no marker .*allowed: 0 \\(no layer\\), or a layer of at least one marker's area"
+                       --set "N-DAM->Initial depth" "1e-9")
+  granflow_mutant_test(periodic_ends_closed_box ndam_column_collapse.xml
+                       "Channel->Left boundary->Type' = Periodic: the channel ends and the N-DAM box's sides must agree: the box is closed .*N-DAM->Boundaries->Left and Right = Periodic"
+                       --set "Channel->Left boundary->Type" "Periodic"
+                       --set "Channel->Right boundary->Type" "Periodic")
   granflow_mutant_test(viscous_surface_number_explicit setup2_coupled.xml
                        "N-DAM->Viscous surface number' = 20: a step limit of the implicit momentum step, and 'Momentum' = Explicit"
                        --set "N-DAM->Momentum" "Explicit"
