@@ -53,7 +53,8 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
     add_double(*pl, "Margin", d.margin,
                "[m] each 2D region is widened by this on both sides (the paper: 'somewhat greater "
                "than suggested by the one-dimensional simulation'); in a Dynamic layout also how "
-               "far inside 2D a shock or a rise of eps is kept",
+               "far inside 2D a shock or a rise of eps is kept, at least two slots there (the "
+               "DAM's two ghost cells at an interface read the 2D side)",
                0.0, 1e6);
     add_double(*pl, "Minimum length", d.min_length,
                "[m] A priori and Dynamic layouts: shorter 1D gaps and end pieces become 2D, and a "

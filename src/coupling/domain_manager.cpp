@@ -67,6 +67,20 @@ DomainManager::DomainManager(const Decomposition& d,
                              params::str(slot_) +
                              " m, the smallest subdomain either model is built with); allowed: "
                              ">= " + params::str(4.0 * slot_) + " m");
+  // The DAM's two ghost cells at a 1D -> 2D interface take the 2D columns' state there, so a
+  // margin below two slots lets the edge the margin is measured from (a shock, a deposit's toe)
+  // into the DAM's stencil: an independent run (a gate pulse against a wall on 40 deg, 10 mm,
+  // all-1D start) with Margin 0 or one slot had the thin tail's last DAM cell read the toe's
+  // columns, gain their momentum (h 0.8 mm at 10.8 m/s, then 57 m/s) and stop with exit 3;
+  // from two slots on it completed at the impact's 3.3 m/s.
+  if (d_.margin < 2.0 * slot_ - 1e-12)
+    throw params::InputError("parameter 'granflow->Decomposition->Margin' = " +
+                             params::str(d_.margin) +
+                             " m is below two slots of the Dynamic layout (2 x " +
+                             params::str(slot_) +
+                             " m: the DAM's two ghost cells at an interface read the 2D side, "
+                             "and a shock or a deposit's toe inside them stops the run); "
+                             "allowed: >= " + params::str(2.0 * slot_) + " m");
   // every interface on a node common to both grids (the scene snaps them): a move between an
   // interface off a node and the slot the manager rounds it to converts a sliver twice or not
   // at all, and the mass that made went unnoticed

@@ -396,7 +396,7 @@ TEST(DomainManager, RemovedPartGivesItsPendingInflowToTheDam) {
 // with the front at the interface), nothing left unplaced (round-off of the hand-over, 1e-15 of
 // the 0.022 m^2 in the channel), the ledger closed to round-off.
 TEST(DomainManager, MoveRightAfterTheFrontKeepsNoUnplacedMass) {
-  Chute dy = dynamic("dm_early_move", manager("0.1", "0.09", "0", "0.04", "0.0001", "0.0001"));
+  Chute dy = dynamic("dm_early_move", manager("0.1", "0.09", "0.02", "0.04", "0.0001", "0.0001"));
   dy.models = "2D, 1D, 2D";
   dy.interfaces = "0.2, 0.7";
   dy.wall = true;
@@ -440,7 +440,7 @@ TEST(DomainManager, RebuiltGatePartKeepsTheLedgerClosed) {
     std::string extra;
     double end;
   };
-  const std::string common = param("Margin", "double", "0") +
+  const std::string common = param("Margin", "double", "0.02") +
                              param("Minimum length", "double", "0.04");
   const Variant variants[] = {
       {"dm_gate_five", "1D, 2D, 1D, 2D, 1D", "0.1, 0.3, 0.5, 0.8",
