@@ -1,7 +1,9 @@
 #pragma once
 // Coupled-chute scenes for the tests, written as XML and built through the scene interface
 // (scene::load and scene::build_model, as the granflow app does), and small helpers.
+#include "granflow/core/simulation.hpp"
 #include "granflow/coupling/coupled_model.hpp"
+#include "granflow/dam/dam_solver.hpp"
 #include "granflow/scene/scene.hpp"
 
 #include <gtest/gtest.h>
@@ -51,6 +53,10 @@ struct Chute {
 
   std::string xml() const {
     const double L = froude_scale, T = std::sqrt(froude_scale), U = T;
+    // the defaults that a scaled scene writes out, from the components that own them
+    const coupling::Decomposition dd;
+    const dam::DamConfig dc;
+    const core::RunControl rc;
     // the shortest form that reads back as the same double (std::to_string's 6 decimals would
     // lose a scaled 1e-6): 0.06 stays "0.06"
     const auto num = [](double v) {
@@ -88,21 +94,22 @@ struct Chute {
     <Parameter name="Models" type="Array(string)" value="{)x" + models + R"x(}"/>
     <Parameter name="Interfaces" type="Array(double)" value="{)x" + scaled_list(interfaces, L) + R"x(}"/>
     <Parameter name="Layout" type="string" value=")x" + layout + R"x("/>)x" +
-           (froude_scale != 1.0 ? scaled("Interface mass relaxation", 0.01 * T) : std::string()) +
+           (froude_scale != 1.0 ? scaled("Interface mass relaxation", dd.interface_mass_relaxation * T) : std::string()) +
            (froude_scale != 1.0 && layout != "Static"
-                ? scaled("Margin", 0.05 * L) + scaled("Minimum length", 0.05 * L)
+                ? scaled("Margin", dd.margin * L) + scaled("Minimum length", dd.min_length * L)
                 : std::string()) +
            (froude_scale != 1.0 && layout == "Dynamic"
-                ? scaled("Hold time", 0.05 * T) + scaled("Check interval", 0.005 * T) +
-                      scaled("Rest speed", 0.05 * U)
+                ? scaled("Hold time", dd.hold_time * T) +
+                      scaled("Check interval", dd.check_interval * T) +
+                      scaled("Rest speed", dd.rest_speed * U)
                 : std::string()) +
            decomposition_extra + R"x(
   </ParameterList>
   <ParameterList name="DAM">
     <Parameter name="Cells" type="int" value=")x" + std::to_string(nx * dam_cells_per_column) + R"x("/>
     <Parameter name="Scheme" type="string" value="Beam-Warming"/>)x" +
-           (froude_scale != 1.0 ? scaled("Dry depth", 1e-6 * L) +
-                                      scaled("Earth pressure smoothing", 0.1 / T)
+           (froude_scale != 1.0 ? scaled("Dry depth", dc.dry_depth * L) +
+                                      scaled("Earth pressure smoothing", dc.k_smoothing / T)
                                 : std::string()) + R"x(
   </ParameterList>)x";
     s += R"x(
@@ -150,7 +157,7 @@ struct Chute {
   </ParameterList>
   <ParameterList name="Time">
     <Parameter name="End time" type="double" value=")x" + num(end_time * T) + R"x("/>)x" +
-         (froude_scale != 1.0 ? scaled("Max time step", 0.01 * T) : std::string()) + R"x(
+         (froude_scale != 1.0 ? scaled("Max time step", rc.max_dt * T) : std::string()) + R"x(
   </ParameterList>
   <ParameterList name="Output">
     <Parameter name="Directory" type="string" value="out_)x" + name + R"x("/>
