@@ -60,27 +60,27 @@ DomainManager::DomainManager(const Decomposition& d,
         " m and the 1D cell width L / (DAM->Cells) = " + params::str(dx1) +
         " m must be multiples of one another; allowed: e.g. DAM->Cells = 2 x N-DAM->Cells x");
   nslots_ = static_cast<int>(std::lround(L / slot_));
-  if (d_.min_length < 4.0 * slot_ - 1e-12)
-    throw params::InputError("parameter 'granflow->Decomposition->Minimum length' = " +
-                             params::str(d_.min_length) +
-                             " m is below four slots of the Dynamic layout (4 x " +
-                             params::str(slot_) +
-                             " m, the smallest subdomain either model is built with); allowed: "
-                             ">= " + params::str(4.0 * slot_) + " m");
+  // a length of the layout that must span at least n slots
+  auto at_least_slots = [&](const char* name, double value, int n, const char* count,
+                            const std::string& why) {
+    if (value < n * slot_ - 1e-12)
+      throw params::InputError("parameter 'granflow->Decomposition->" + std::string(name) +
+                               "' = " + params::str(value) + " m is below " + count +
+                               " slots of the Dynamic layout (" + std::to_string(n) + " x " +
+                               params::str(slot_) + " m" + why + "); allowed: >= " +
+                               params::str(n * slot_) + " m");
+  };
+  at_least_slots("Minimum length", d_.min_length, 4, "four",
+                 ", the smallest subdomain either model is built with");
   // The DAM's two ghost cells at a 1D -> 2D interface take the 2D columns' state there, so a
   // margin below two slots lets the edge the margin is measured from (a shock, a deposit's toe)
   // into the DAM's stencil: an independent run (a gate pulse against a wall on 40 deg, 10 mm,
   // all-1D start) with Margin 0 or one slot had the thin tail's last DAM cell read the toe's
   // columns, gain their momentum (h 0.8 mm at 10.8 m/s, then 57 m/s) and stop with exit 3;
   // from two slots on it completed at the impact's 3.3 m/s.
-  if (d_.margin < 2.0 * slot_ - 1e-12)
-    throw params::InputError("parameter 'granflow->Decomposition->Margin' = " +
-                             params::str(d_.margin) +
-                             " m is below two slots of the Dynamic layout (2 x " +
-                             params::str(slot_) +
-                             " m: the DAM's two ghost cells at an interface read the 2D side, "
-                             "and a shock or a deposit's toe inside them stops the run); "
-                             "allowed: >= " + params::str(2.0 * slot_) + " m");
+  at_least_slots("Margin", d_.margin, 2, "two",
+                 ": the DAM's two ghost cells at an interface read the 2D side, and a shock or a "
+                 "deposit's toe inside them stops the run");
   // every interface on a node common to both grids (the scene snaps them): a move between an
   // interface off a node and the slot the manager rounds it to converts a sliver twice or not
   // at all, and the mass that made went unnoticed

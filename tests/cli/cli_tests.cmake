@@ -278,6 +278,9 @@ if(Python3_Interpreter_FOUND)
                        "Channel->Left boundary->Type' = Periodic: the channel ends and the N-DAM box's sides must agree: the box is closed .*N-DAM->Boundaries->Left and Right = Periodic"
                        --set "Channel->Left boundary->Type" "Periodic"
                        --set "Channel->Right boundary->Type" "Periodic")
+  granflow_mutant_test(dynamic_min_length_three_slots setup2_dynamic.xml
+                       "Decomposition->Minimum length' = 0.015 m is below four slots of the Dynamic layout \\(4 x 0.005 m, the smallest subdomain .*allowed: >= 0.02 m"
+                       --set "Decomposition->Minimum length" "0.015")
   granflow_mutant_test(dynamic_margin_one_slot setup2_dynamic.xml
                        "Decomposition->Margin' = 0.005 m is below two slots of the Dynamic layout .*allowed: >= 0.01 m"
                        --set "Decomposition->Margin" "0.005")
