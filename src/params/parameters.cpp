@@ -700,9 +700,17 @@ struct Reader {
           ve->validator()->validate(e, name, path);
         } catch (const std::exception&) {
           const bool number = type == "double" || type == "int";
+          // numbers are read with blanks around them, names are not: say so where it is the
+          // cause ("Minmod " looked like an allowed value; an independent run)
+          const bool blanks =
+              type == "string" && !text.empty() &&
+              (std::isspace(static_cast<unsigned char>(text.front())) ||
+               std::isspace(static_cast<unsigned char>(text.back())));
           fail(entered, std::string(number ? "out of range" : type == "string"
                                                                   ? "not an allowed value"
                                                                   : "an entry is not allowed") +
+                            (blanks ? " (the blanks around it count; write it without them)"
+                                    : "") +
                             "; allowed: " + describe(type, ve));
         }
       }

@@ -278,6 +278,9 @@ if(Python3_Interpreter_FOUND)
                        "Channel->Left boundary->Type' = Periodic: the channel ends and the N-DAM box's sides must agree: the box is closed .*N-DAM->Boundaries->Left and Right = Periodic"
                        --set "Channel->Left boundary->Type" "Periodic"
                        --set "Channel->Right boundary->Type" "Periodic")
+  granflow_mutant_test(enum_with_blanks setup2_dam.xml
+                       "DAM->Scheme' = \"Minmod \": not an allowed value \\(the blanks around it count; write it without them\\); allowed: one of Minmod, Beam-Warming"
+                       --set "DAM->Scheme" "Minmod ")
   granflow_mutant_test(dynamic_min_length_three_slots setup2_dynamic.xml
                        "Decomposition->Minimum length' = 0.015 m is below four slots of the Dynamic layout \\(4 x 0.005 m, the smallest subdomain .*allowed: >= 0.02 m"
                        --set "Decomposition->Minimum length" "0.015")
