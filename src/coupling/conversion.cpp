@@ -457,6 +457,7 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
     const int nmx = cfg2.markers_per_cell, nmz = cfg2.markers_per_cell;
     const double sx = nb.dx / nmx, sz = nb.dz / nmz;
     const double gcos = std::abs(factory.two_d().physics.gz), K = factory.interface_options().K;
+    const double shape_speed = kShapeSpeedWaves * std::sqrt(gcos * nb.dz);  // rest: a plug
     for (int j = 0; j < nx; ++j) {
       if (nb.src_box[static_cast<std::size_t>(j)] >= 0) continue;
       const long long n = mk[static_cast<std::size_t>(j)];
@@ -492,7 +493,7 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
         const double unb = o.u_mean[static_cast<std::size_t>(nb.src_col[static_cast<std::size_t>(nbj)])];
         const double hnb = hcol[static_cast<std::size_t>(nbj)];
         const int knb = static_cast<int>(std::ceil(hnb / nb.dz));
-        if (std::abs(unb) > kShapeSpeedWaves * std::sqrt(gcos * nb.dz) && knb >= 2 && h > 0.0)
+        if (std::abs(unb) > shape_speed && knb >= 2 && h > 0.0)
           for (int k = 0; k < nz; ++k) {
             const double zeta = std::min(1.0, (k + 0.5) * nb.dz / h);
             const double s = std::clamp(zeta * hnb / nb.dz - 0.5, 0.0, knb - 1.0);

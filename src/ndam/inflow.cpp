@@ -66,7 +66,7 @@ constexpr double kShapeMax = 2.0;
 // 5-20 % of a step's mass; in a step that lands on an output time (1/93 of the stable one in
 // Setup II coupled) it outweighed the flux with either sign. The averaging terms wait in a pool
 // of their own (inflow_held_) that enters at the rate the flow crosses one 2D cell, a fraction
-// min(1, dt (|u_mean| + floor) / dx) of the pool per step: a time scale of the flow and the
+// min(1, dt (|u_mean| + u_floor) / dx) of the pool per step: a time scale of the flow and the
 // grid, not of dt. A step lets in at most kHeldRelease of its flux's mass from the pool (or the
 // step's own averaging term, where that is more, so that the pool drains as fast as it fills),
 // so that the opening's depth stays within that fraction of the DAM's: the pool also takes the
@@ -86,13 +86,13 @@ void NdamSolver::gate_state(double dt) {
     if (const auto m = inflow_mass_(t_, dt)) {
       // Exact transfer: the step lets in what the upstream side let out (plus what earlier
       // steps could not take), at the DAM's u_mean through an opening whose depth the mass sets
-      // (up to kInflowDeepen h, then faster up to |u_mean| + floor), from a depth of at least
+      // (up to kInflowDeepen h, then faster up to |u_mean| + u_floor), from a depth of at least
       // kInflowMinDepthCells dz; the rest waits for the next steps. The DAM's
       // averaging term (m->held) joins the held pool, of which the step lets in its share.
       const double h = inflow_now_[0], um = std::abs(inflow_now_[1]);
       const double dz = cfg_.grid.dz();
-      const double floor = kInflowSpeedupFloorWaves * std::sqrt(std::abs(phys_.gz) * dz);
-      const double ucap = um + floor;
+      const double u_floor = kInflowSpeedupFloorWaves * std::sqrt(std::abs(phys_.gz) * dz);
+      const double ucap = um + u_floor;
       const double pool = inflow_held_ + m->held;
       const double share = std::min(1.0, dt * ucap / cfg_.grid.dx());
       const double cap = std::max(kHeldRelease * std::abs(m->mass - m->held), std::abs(m->held));
@@ -100,7 +100,7 @@ void NdamSolver::gate_state(double dt) {
       const double flowing = (m->mass - m->held) + inflow_owed_ + release;
       double u = 0.0, depth = h;
       if (h > kInflowMinDepthCells * dz && flowing > 0.0) {
-        if (um > floor) {  // eq. (24): the DAM's u_mean; the mass sets the depth
+        if (um > u_floor) {  // eq. (24): the DAM's u_mean; the mass sets the depth
           u = um;
           depth = flowing / (dt * u);
           if (depth > kInflowDeepen * h) {
