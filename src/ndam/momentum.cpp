@@ -122,7 +122,8 @@ void NdamSolver::viscous_w(int i, int k, Emit&& e) const {
 // cell among their neighbours (the 3 x 3 blocks around them) is fully upwind (donor cell): the
 // velocities it reaches in the Empty region are extrapolations, and their central weight made
 // momentum where there is none. A thin film lifted one row above an empty bed row gained
-// 500 m/s^2 from the uw flux against that row's extrapolated u = 0 (Setup II at 1.25 mm with
+// 500 m/s^2 from the uw flux against that row's extrapolated u, then 0 (the gap under lifted
+// material now takes the material's u, free_surface.cpp; Setup II at 1.25 mm with
 // outputs every 0.025 s diverged at 0.378 s; with the upwind faces it completes, its fastest
 // cell 3.8 m/s; docs/validation.md, "Ghost-fluid free surface"). NaSt2D's surface keeps
 // 'Donor-cell weight' everywhere.
