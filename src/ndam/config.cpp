@@ -569,6 +569,13 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
     for (const char* name : {"Initial x0", "Initial x1"})
       unused(name, "the extent of the initial layer, and 'Initial depth' = 0 (no layer); "
                    "allowed: leave it out, or 'Initial depth' > 0");
+  // (an independent run: accepted with a No-slip bed and a Free-slip end wall)
+  if (c.walls[1].kind != WallKind::Coulomb && c.walls[2].kind != WallKind::Coulomb)
+    unused("Friction regularisation",
+           "m_c of the Coulomb sliding law, and no side is Coulomb (Bottom = " +
+               pl.sublist("Boundaries").get<std::string>("Bottom") +
+               ", Right = " + pl.sublist("Boundaries").get<std::string>("Right") +
+               "); allowed: leave it out, or Bottom or Right = Coulomb");
   if (c.pressure_coupling == PressureCoupling::Lagged)
     for (const char* name :
          {"Pressure iteration", "Anderson depth", "Anderson fallback", "Pressure Newton failure"})

@@ -247,6 +247,10 @@ if(Python3_Interpreter_FOUND)
   # settings that the scene's configuration does not use are refused by name (an independent
   # run, 2026-12-05: each was accepted without effect; the open end's Moving lid at 1000 m/s
   # still raised the speed limit's energy bound to 1005 m/s)
+  # (an independent run, 2026-12-07: m_c accepted with a No-slip bed and a Free-slip end wall)
+  granflow_mutant_test(unused_friction_regularisation setup2_ndam.xml
+                       "N-DAM->Friction regularisation' = 100: m_c of the Coulomb sliding law, and no side is Coulomb \\(Bottom = No-slip, Right = Free-slip\\)"
+                       --set "N-DAM->Boundaries->Bottom" "No-slip" --set "N-DAM->Boundaries->Right" "Free-slip")
   granflow_mutant_test(outflow_end_wall setup1_ndam.xml
                        "N-DAM->Boundaries->Right' = No-slip: the channel's right end is open .*allowed: Free-slip, or leave it out"
                        --set "N-DAM->Boundaries->Right" "No-slip")

@@ -56,7 +56,8 @@ inline std::unique_ptr<ndam::NdamSolver> make_fs(const FsCase& c, MPI_Comm comm 
     n.set("Initial x0", c.init_x0);
     n.set("Initial x1", c.init_x1);
   }
-  n.set("Friction regularisation", c.m_c);
+  // (refused without a Coulomb side, as an unused option)
+  if (c.walls[1] == "Coulomb" || c.walls[2] == "Coulomb") n.set("Friction regularisation", c.m_c);
   n.set("Pressure coupling", c.coupling);
   if (c.coupling == "Nonlinear") n.set("Pressure iteration", c.pressure_iteration);
   n.set("Surface cell mass", c.surface_mass);
