@@ -459,24 +459,8 @@ void NdamSolver::apply_free_surface(Field& u, Field& w) const {
     const int k0 = std::min(std::max(kt + 1, 1), nz);  // the upward copy from k0 on
     for (int k = 0; k < k0; ++k) {
       if (mac_.fluid(gi, k) || mac_.fluid(gi + 1, k)) continue;
-      if (k > 0) {
-        u(i, k) = u(i, k - 1);
-      } else if (mac_.fluid(gi - 1, k) || mac_.fluid(gi, k)) {
-        u(i, k) = u(i - 1, k);  // ahead of a front at the bed: the face behind it
-      } else {
-        // Under material lifted off the bed (a film, a jet, a droplet over an empty bed
-        // row): the gap takes the lowest material face's u (zero normal gradient at the
-        // layer's underside), as the region above a layer takes its top face's. With 0 here
-        // the conservative convection of the layer's bottom faces, where the underside
-        // rises (w > 0), took in momentum from a gap that holds no material: a film lifted
-        // one row over an empty bed row lost 18 % of its u in 10 ms
-        // (NdamGhostSurface.LiftedFilmKeepsItsSpeed).
-        int kb = 1;
-        while (kb < k0 && !mac_.fluid(gi, kb) && !mac_.fluid(gi + 1, kb)) ++kb;
-        const double below = kb < k0 ? u(i, kb) : 0.0;
-        for (int q = 0; q < kb; ++q) u(i, q) = below;
-        k = kb;
-      }
+      if (k > 0) u(i, k) = u(i, k - 1);
+      else u(i, k) = (mac_.fluid(gi - 1, k) || mac_.fluid(gi, k)) ? u(i - 1, k) : 0.0;
     }
     if (k0 < nz) std::fill(&u(i, k0), &u(i, k0) + (nz - k0), u(i, k0 - 1));
   }
