@@ -64,7 +64,10 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
                "(Savage-Hutter only)",
                1e-8, 1e6);
     add_double(*pl, "Dry depth", d.dry_depth,
-               "[m] cells shallower than this are dry: their velocity is zero", 0.0, 1.0);
+               "[m] cells shallower than this are dry: their velocity is zero, and "
+               "profiles.csv reports them empty (h = 0; fields.h5 keeps the model's h). Below "
+               "a tenth of the inflow's and of the initial layer's depth",
+               0.0, 1.0);
     add_double(*pl, "Bed friction angle", d.bed_friction_deg,
                "delta_1D [deg]: bed friction angle of the DAM (source term and K) when it should "
                "differ from Material->Bed friction angle, e.g. the 1D subdomains of a coupled "

@@ -293,7 +293,9 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "by the work of each column (its material cells, and a small share for its empty "
              "ones), checked every few steps and rebuilt from the state when a rank holds more "
              "than 10 % above the mean (a chute filling from the gate, a deposit growing at "
-             "the wall); Columns: equal numbers of columns, fixed. One rank: no effect",
+             "the wall); Columns: equal numbers of columns, fixed. One rank: no effect. Full "
+             "2D only: the 2D subdomains of a coupled channel keep the equal split (refused "
+             "there)",
              {"Material", "Columns"});
     add_enum(*pl, "Pressure iteration",
              d.pressure_iteration == PressureIteration::Anderson ? "Anderson fixed point"

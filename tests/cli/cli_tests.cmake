@@ -301,6 +301,15 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(layer_extent_without_layer setup2_ndam.xml
                        "N-DAM->Initial x0' = 0.5: the extent of the initial layer, and 'Initial depth' = 0"
                        --add "N-DAM->Initial x0" double 0.5)
+  # the DAM's dry depth against the initial layer (an independent run, session 37: one above a
+  # block's depth ran with u = 0 throughout and an empty profiles.csv)
+  granflow_mutant_test(dam_dry_depth_above_layer dambreak_incline.xml
+                       "DAM->Dry depth' = 0.02: cells shallower than it do not move, and the initial layer \\('Initial condition', Type Block\\) is only 0.1 m deep; allowed: < 0.01 m"
+                       --add "DAM->Dry depth" double 0.02)
+  # (an independent run, session 37: accepted in a coupled scene, whose 2D parts never rebalance)
+  granflow_mutant_test(coupled_load_balance setup2_dynamic.xml
+                       "N-DAM->Load balance' = Columns: a setting of a full 2D box's x-slabs, and the 2D subdomains of a coupled channel keep the equal split"
+                       --add "N-DAM->Load balance" string Columns)
   granflow_mutant_test(dam_smoothing_with_fixed_k setup2_dam.xml
                        "DAM->Earth pressure smoothing' = 5: .*'Earth pressure' = Active \\(K fixed\\); allowed: leave it out, or 'Earth pressure' = Savage-Hutter"
                        --set "DAM->Earth pressure" Active --add "DAM->Earth pressure smoothing" double 5)
