@@ -30,7 +30,7 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 # summary.json keys that measure the machine, not the physics
-VOLATILE = re.compile(r"(seconds|wall|time_s|date|host|started|finished|elapsed|memory|rss|"
+VOLATILE = re.compile(r"(seconds|cpu_time|wall|time_s|date|host|started|finished|elapsed|memory|rss|"
                       r"version|commit|compiler|build|provenance|directory|file|peak)", re.I)
 
 
