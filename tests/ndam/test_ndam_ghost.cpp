@@ -237,8 +237,8 @@ TEST(NdamGhostSurface, CheckpointRestartContinuesBitForBit) {
 // and the conservative convection of its bottom faces, where its underside rises, takes in the
 // u of the empty gap below. That gap took u = 0 from the bed row: +81 % (the conservative form
 // alone) and -18 % (with the filling cells' - u div u) at 10 ms with the ghost-fluid surface,
-// -5.1 % with NaSt2D's; now it takes the film's own u (free_surface.cpp, the extrapolation
-// under lifted material): 3e-16 with both.
+// -5.1 % with NaSt2D's; now a face with no material below takes its own u as the donor of
+// that flux (NdamSolver::conv_u): 3e-16 with both.
 TEST(NdamGhostSurface, LiftedFilmKeepsItsSpeed) {
   for (const char* surface : {"Ghost fluid", "Surface cells"}) {
     FsCase c = ndam_chute::closed_pool(20, 10, 0.1, 0.05, 0.0);
