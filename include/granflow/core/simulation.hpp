@@ -132,6 +132,8 @@ class Simulation {
   std::vector<std::pair<double, std::vector<LayoutPiece>>> layouts_;
   double last_output_t_ = 0.0;
   double last_dt_ = 0.0;
+  /// stderr: the run's fastest material speed above RunControl::energy_bound, if it is
+  void warn_above_energy_bound() const;
   Speed max_speed_;          ///< fastest material velocity over the accepted states so far
   double max_speed_t_ = 0.0;  ///< its time
   /// A step that the speed limit rejected after the model took it: its start time, and the
