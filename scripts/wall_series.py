@@ -5,8 +5,13 @@ contact (which do not depend on which step a peak falls on), the impulse over th
 final load, and the load against the hydrostatic one of the wall column, rho g cos(zeta) h^2/2.
 Standard library only.
 
-Usage: scripts/wall_series.py RUN_DIR [RUN_DIR ...] [--windows A:B,...] (milliseconds after
-the first contact, 0 <= A < B; default 0:5,0:10,0:20,20:50,100:150,300:400; also --windows=...)"""
+Usage: scripts/wall_series.py RUN_DIR [RUN_DIR ...] [--windows A:B,...] [--at A:B,...]
+  --windows: milliseconds after the first contact, 0 <= A < B (default
+             0:5,0:10,0:20,20:50,100:150,300:400; also --windows=...);
+  --at:      fixed windows in seconds of the run's time, 0 <= A < B. The first contact moves
+             with dt and with the layout (a coupled run's 1D front tongue can touch the wall
+             first), and every window that starts there moves with it; runs are compared over
+             fixed windows (docs/validation.md, "Wall load and impact")."""
 import argparse
 import csv
 import json
@@ -15,17 +20,17 @@ import os
 import sys
 
 
-def window_list(text):
-    """A:B,... in ms after the first contact, 0 <= A < B (an independent run: --windows 0:5
-    was taken as a run directory, and 5:0 or 0:0 printed nan means)."""
+def window_list(text, unit="ms"):
+    """A:B,... in `unit`, 0 <= A < B (an independent run: --windows 0:5 was taken as a run
+    directory, and 5:0 or 0:0 printed nan means)."""
     out = []
     for w in text.split(","):
         try:
             a, b = (float(v) for v in w.split(":"))
         except ValueError:
-            raise argparse.ArgumentTypeError(f"'{w}' is not A:B (two numbers of ms)")
+            raise argparse.ArgumentTypeError(f"'{w}' is not A:B (two numbers of {unit})")
         if not (0 <= a < b and math.isfinite(b)):
-            raise argparse.ArgumentTypeError(f"'{w}': allowed: 0 <= A < B ms")
+            raise argparse.ArgumentTypeError(f"'{w}': allowed: 0 <= A < B {unit}")
         out.append((a, b))
     return out
 
@@ -35,6 +40,8 @@ ap.add_argument("dirs", nargs="+", metavar="RUN_DIR")
 ap.add_argument("--windows", type=window_list,
                 default=[(0, 5), (0, 10), (0, 20), (20, 50), (100, 150), (300, 400)],
                 help="A:B,... [ms] after the first contact")
+ap.add_argument("--at", type=lambda t: window_list(t, "s"), default=[],
+                help="A:B,... [s] fixed windows of the run's time")
 args = ap.parse_args()
 dirs, windows = args.dirs, args.windows
 for d in dirs:
@@ -84,6 +91,17 @@ for d in dirs:
         print(f"  mean over +[{a:g}, {b:g}] ms: force {mean('force', a / 1e3, b / 1e3):7.1f}  "
               f"normal {mean('normal_force', a / 1e3, b / 1e3):7.1f}  shear "
               f"{mean('shear', a / 1e3, b / 1e3):6.1f} N/m  p_foot {mean('p_foot', a / 1e3, b / 1e3):7.0f} Pa"
+              + note)
+    for a, b in args.at:
+        if a >= rows[-1]["t"] or b <= rows[0]["t"]:
+            print(f"  mean over [{a:g}, {b:g}] s: no rows (the run covers [{rows[0]['t']:g}, "
+                  f"{rows[-1]['t']:g}] s)")
+            continue
+        lo, hi = max(a, rows[0]["t"]), min(b, rows[-1]["t"])
+        note = "" if (lo, hi) == (a, b) else f" (rows only on [{lo:g}, {hi:g}] s: mean of that part)"
+        print(f"  mean over [{a:g}, {b:g}] s: force {mean('force', a - tc, b - tc):7.1f}  "
+              f"normal {mean('normal_force', a - tc, b - tc):7.1f}  shear "
+              f"{mean('shear', a - tc, b - tc):6.1f} N/m  p_foot {mean('p_foot', a - tc, b - tc):7.0f} Pa"
               + note)
     part = covered(0.0, 50.0)
     imp = mean("normal_force", 0, part / 1e3) * part / 1e3 if part > 0 else 0.0

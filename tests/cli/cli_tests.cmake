@@ -447,6 +447,8 @@ granflow_script_test(find_holes_two_directories 2 "unrecognized arguments: b"
                      find_holes.py a b)
 granflow_script_test(wall_series_reversed_window 2 "'5:0': allowed: 0 <= A < B ms"
                      wall_series.py a --windows 5:0)
+granflow_script_test(wall_series_reversed_fixed_window 2 "'0.8:0.7': allowed: 0 <= A < B s"
+                     wall_series.py a --at 0.8:0.7)
 
 # Error against run time (issue 12 item 5): the quick matrix of scripts/pareto.py is produced and
 # agrees with its runs' summary.json; the full matrices are long runs (label `long`; they resume
