@@ -75,20 +75,8 @@ InitialCondition InitialCondition::from_parameters(const Teuchos::ParameterList&
                                                    const Teuchos::ParameterList* user,
                                                    const core::Channel& ch) {
   const auto type = pl.get<std::string>("Type");
-  const auto& used = used_by_type().at(type);
-  if (user) {
-    for (auto it = user->begin(); it != user->end(); ++it) {
-      const auto& n = user->name(it);
-      if (n == "Type") continue;
-      if (std::find(used.begin(), used.end(), n) == used.end()) {
-        std::string allowed;
-        for (const auto& u : used) allowed += (allowed.empty() ? "" : ", ") + u;
-        params::fail(pl, n, Teuchos::toString(user->entry(it).getAny(false)),
-                     "not used by initial condition Type '" + type + "' (it reads: " +
-                         (allowed.empty() ? std::string("nothing") : allowed) + ")");
-      }
-    }
-  }
+  params::fail_unused(pl, user, used_by_type().at(type), "Type",
+                      "initial condition Type '" + type + "'");
   InitialCondition c;
   for (Type t : kTypes)
     if (type == to_string(t)) c.type = t;

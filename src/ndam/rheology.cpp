@@ -57,19 +57,8 @@ Rheology Rheology::from_parameters(const Teuchos::ParameterList& pl,
                              : RheologyModel::DruckerPrager;
   r.nu = pl.get<double>("Viscosity");
   r.m_y = pl.get<double>("Regularisation");
-  if (user) {
-    const auto& used = used_by_model().at(m);
-    for (auto it = user->begin(); it != user->end(); ++it) {
-      const auto& n = user->name(it);
-      if (n == "Model") continue;
-      if (std::find(used.begin(), used.end(), n) == used.end()) {
-        std::string reads;
-        for (const auto& u : used) reads += (reads.empty() ? "" : ", ") + u;
-        params::fail(pl, n, Teuchos::toString(user->entry(it).getAny(false)),
-                     "not used by the rheology Model '" + m + "' (it reads: " + reads + ")");
-      }
-    }
-  }
+  params::fail_unused(pl, user, used_by_model().at(m), "Model",
+                      "the rheology Model '" + m + "'");
   // Each model sets both yield-stress coefficients (the struct's defaults are Drucker-Prager's).
   r.tau_c = r.model != RheologyModel::Newtonian ? pl.get<double>("Yield stress") : 0.0;
   r.tau_p = r.model == RheologyModel::DruckerPrager

@@ -4,6 +4,7 @@
 #include <Teuchos_StringInputSource.hpp>
 
 #include <algorithm>
+#include <utility>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -126,6 +127,27 @@ void fail_if_given(const ParameterList& pl, const ParameterList* user, const std
     value = str(std::vector<double>(a.begin(), a.end()));
   } else value = Teuchos::toString(any);
   fail(pl, name, value, why);
+}
+
+void fail_unused(const ParameterList& pl, const ParameterList* user,
+                 const std::vector<std::string>& used, const std::string& selector,
+                 const std::string& owner) {
+  if (!user) return;
+  std::vector<std::pair<std::string, std::string>> unused;  // (name, value as written)
+  for (auto it = user->begin(); it != user->end(); ++it) {
+    const auto& n = user->name(it);
+    if (n == selector || std::find(used.begin(), used.end(), n) != used.end()) continue;
+    unused.emplace_back(n, Teuchos::toString(user->entry(it).getAny(false)));
+  }
+  if (unused.empty()) return;
+  std::string reads, also;
+  for (const auto& u : used) reads += (reads.empty() ? "" : ", ") + u;
+  for (std::size_t q = 1; q < unused.size(); ++q)
+    also += (also.empty() ? "; also not used: '" : ", '") + path(pl, unused[q].first) + "' = " +
+            unused[q].second;
+  fail(pl, unused[0].first, unused[0].second,
+       "not used by " + owner + " (it reads: " + (reads.empty() ? std::string("nothing") : reads) +
+           ")" + also);
 }
 
 namespace {

@@ -310,6 +310,11 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(coupled_load_balance setup2_dynamic.xml
                        "N-DAM->Load balance' = Columns: a setting of a full 2D box's x-slabs, and the 2D subdomains of a coupled channel keep the equal split"
                        --add "N-DAM->Load balance" string Columns)
+  # every unused parameter of a list in one message (an independent run, session 37: switching
+  # to Newtonian was refused for 'Yield stress', then again for 'Regularisation')
+  granflow_mutant_test(rheology_unused_all_at_once setup2_ndam.xml
+                       "Rheology->Yield stress' = 0: not used by the rheology Model 'Newtonian' \\(it reads: Viscosity\\); also not used: 'granflow->Rheology->Regularisation' = 100"
+                       --set "Rheology->Model" Newtonian)
   granflow_mutant_test(dam_smoothing_with_fixed_k setup2_dam.xml
                        "DAM->Earth pressure smoothing' = 5: .*'Earth pressure' = Active \\(K fixed\\); allowed: leave it out, or 'Earth pressure' = Savage-Hutter"
                        --set "DAM->Earth pressure" Active --add "DAM->Earth pressure smoothing" double 5)

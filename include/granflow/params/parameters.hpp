@@ -108,6 +108,15 @@ std::string path(const ParameterList& pl, const std::string& name);
 void fail_if_given(const ParameterList& pl, const ParameterList* user, const std::string& name,
                    const std::string& why);
 
+/// fail() for the parameters the scene gives (`user`) that `owner` (e.g. "the rheology Model
+/// 'Newtonian'") does not read: every such parameter in one message, the first one named as
+/// fail() names it and the others after "also not used" (an independent run: a user who
+/// switched the model was refused one parameter per attempt). `selector` (e.g. "Model") is
+/// never unused; nothing when `user` is null or gives only used parameters.
+void fail_unused(const ParameterList& pl, const ParameterList* user,
+                 const std::vector<std::string>& used, const std::string& selector,
+                 const std::string& owner);
+
 /// A Trilinos exception's text without its source locations and internal test lines: the
 /// lines that name the parameter, its list and the allowed values, each indented by two spaces.
 std::string trim_teuchos(const std::string& what);
