@@ -110,4 +110,6 @@ for d in dirs:
     last = rows[-1]
     hyd = 0.5 * rho * g * math.cos(zeta) * last["depth"] ** 2
     print(f"  final: depth {last['depth']:.4f} m, force {last['force']:.1f} N/m = "
-          f"{last['force'] / hyd:.3f} x hydrostatic {hyd:.1f} N/m, normal {last['normal_force']:.1f}")
+          f"{last['force'] / hyd:.3f} x hydrostatic {hyd:.1f} N/m, normal {last['normal_force']:.1f}"
+          + ("" if last["contact"] else " (not in contact: a film thinner than a cell, whose "
+             "row carries the viscous normal stress of a cell it barely fills)"))

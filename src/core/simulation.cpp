@@ -476,7 +476,8 @@ nlohmann::json Simulation::wall_summary() const {
               "impact_window (Output->Impact window) after the first contact (the wall column "
               "holds one cell height of material); peak, max, min: over every sample in "
               "contact (a film thinner than a cell before it is left out; wall.csv has every "
-              "row)";
+              "row); final: the last sample, in contact or not (a film's row carries the "
+              "viscous normal stress of a cell it barely fills: read it with its depth)";
   j["samples"] = sr.samples;
   j["first_contact_time"] = sr.t_contact >= 0.0 ? nlohmann::json(sr.t_contact) : nlohmann::json();
   j["impact_window"] = rc_.impact_window;
