@@ -454,6 +454,12 @@ granflow_script_test(wall_series_reversed_window 2 "'5:0': allowed: 0 <= A < B m
                      wall_series.py a --windows 5:0)
 granflow_script_test(wall_series_reversed_fixed_window 2 "'0.8:0.7': allowed: 0 <= A < B s"
                      wall_series.py a --at 0.8:0.7)
+# fixed windows on a series whose means are known exactly (tests/cli/wall_series_ramp: rows
+# at t = 0.1 .. 0.4 s with force 10 .. 40 N/m, each holding over the step it ends): [0.15, 0.35]
+# s takes 20, 30 and 40 N/m for 0.05, 0.1 and 0.05 s, a mean of 30; [0.3, 0.6] s has rows only
+# to 0.4 s and says so
+granflow_script_test(wall_series_fixed_window_means 0 "mean over \\[0\\.15, 0\\.35\\] s: force +30\\.0 +normal +36\\.0.*mean over \\[0\\.3, 0\\.6\\] s: force +40\\.0 .*rows only on \\[0\\.3, 0\\.4\\] s"
+                     wall_series.py ${_cli}/wall_series_ramp --at 0.15:0.35,0.3:0.6)
 
 # Error against run time (issue 12 item 5): the quick matrix of scripts/pareto.py is produced and
 # agrees with its runs' summary.json; the full matrices are long runs (label `long`; they resume
