@@ -489,13 +489,11 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                  std::string("the channel ends and the N-DAM box's sides must agree: ") +
                      (pl_ ? "the box is periodic along x (N-DAM->Boundaries->Left and Right = "
                             "Periodic); allowed: Periodic, or sides that are not Periodic"
-                          : ch_periodic
-                                ? "the box is closed at x = 0 and x = L; allowed: Wall (a "
-                                  "gate or an open end needs 'Free surface' true), or "
-                                  "N-DAM->Boundaries->Left and Right = Periodic for a periodic "
-                                  "channel"
-                                : "the box is closed at x = 0 and x = L; allowed: Wall (a "
-                                  "gate or an open end needs 'Free surface' true)"));
+                          : std::string("the box is closed at x = 0 and x = L; allowed: Wall (a "
+                                        "gate or an open end needs 'Free surface' true)") +
+                                (ch_periodic ? ", or N-DAM->Boundaries->Left and Right = "
+                                               "Periodic for a periodic channel"
+                                             : "")));
   }
   // Obstacles: "x0 x1 z0 z1; ..."
   {

@@ -57,15 +57,18 @@ bool io_rank0(MPI_Comm comm) {
 // channel): a tenth of the initial condition's deepest layer.
 void check_dry_depth(const Teuchos::ParameterList& p, const dam::DamConfig& cfg,
                      const core::Channel& channel) {
-  const auto& dam = p.sublist("DAM");
-  if (channel.left.type == core::BoundaryType::Inflow) {
-    const double h_in = channel.left.inflow.max_depth();
-    if (h_in > 0.0 && !(cfg.dry_depth < 0.1 * h_in))
-      params::fail(dam, "Dry depth", params::str(cfg.dry_depth),
-                   "cells shallower than it do not move, and the gate's opening is only " +
-                       params::str(h_in) + " m deep (Channel->Left boundary); allowed: < " +
-                       params::str(0.1 * h_in) + " m (a tenth of the inflow depth)");
-  }
+  // a tenth of `depth`, the layer named by `layer` (and `where`), `what` in the allowed range
+  auto below_tenth = [&](double depth, const std::string& layer, const std::string& where,
+                         const char* what) {
+    if (depth > 0.0 && !(cfg.dry_depth < 0.1 * depth))
+      params::fail(p.sublist("DAM"), "Dry depth", params::str(cfg.dry_depth),
+                   "cells shallower than it do not move, and " + layer + " is only " +
+                       params::str(depth) + " m deep" + where + "; allowed: < " +
+                       params::str(0.1 * depth) + " m (a tenth of the " + what + " depth)");
+  };
+  if (channel.left.type == core::BoundaryType::Inflow)
+    below_tenth(channel.left.inflow.max_depth(), "the gate's opening", " (Channel->Left boundary)",
+                "inflow");
   if (!p.isSublist("Initial condition")) return;
   const auto& ic = p.sublist("Initial condition");
   const std::string type = ic.get<std::string>("Type");
@@ -73,12 +76,7 @@ void check_dry_depth(const Teuchos::ParameterList& p, const dam::DamConfig& cfg,
   if (type == "Uniform" || type == "Block") h0 = ic.get<double>("Depth");
   if (type == "Sine wave") h0 = ic.get<double>("Depth") * (1.0 + ic.get<double>("Amplitude"));
   if (type == "Dam break") h0 = std::max(ic.get<double>("Left depth"), ic.get<double>("Right depth"));
-  if (h0 > 0.0 && !(cfg.dry_depth < 0.1 * h0))
-    params::fail(dam, "Dry depth", params::str(cfg.dry_depth),
-                 "cells shallower than it do not move, and the initial layer ('Initial "
-                 "condition', Type " + type + ") is only " + params::str(h0) +
-                     " m deep; allowed: < " + params::str(0.1 * h0) +
-                     " m (a tenth of the initial depth)");
+  below_tenth(h0, "the initial layer ('Initial condition', Type " + type + ")", "", "initial");
 }
 
 // A sine wave of the initial condition must be resolved by the DAM's cells: with N cells a
