@@ -224,7 +224,9 @@ Teuchos::RCP<const Teuchos::ParameterList> Channel::getValidParameters() {
                "h_in [m]: opening of the silo gate (Inflow only)", 0.0, kMaxInflowDepth);
     add_double(left, "Inflow velocity", d.left.inflow.velocity(0.0),
                "u_in [m/s]: mean inflow velocity through the gate (Inflow only). The discharge "
-               "h_in u_in enters exactly; in the DAM a subcritical gate (u_in below the wave "
+               "h_in u_in enters exactly (in 2D as whole markers: each open marker row carries its "
+               "fraction of a marker to the next step, summary.json "
+               "mass_balance.pending_at_left_end); in the DAM a subcritical gate (u_in below the wave "
                "speed of h_in) prescribes only that discharge and takes its depth from the "
                "channel: the critical depth over a dry or accelerating channel "
                "(docs/numerics.md)", -kMaxInflowSpeed, kMaxInflowSpeed);

@@ -565,6 +565,7 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
                        {"final", m.current},
                        {"net_in_through_left_end", m.inflow},
                        {"net_out_through_right_end", m.outflow},
+                       {"pending_at_left_end", m.pending_inflow},
                        {"defect", m.defect()},
                        {"relative_defect",
                         m.defect() / std::max({std::abs(m.initial), std::abs(m.current),

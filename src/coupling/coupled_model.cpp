@@ -434,6 +434,7 @@ core::MassBalance CoupledModel::mass_balance() const {
   m.current += unplaced_;
   m.inflow = retired_inflow_ + parts_.front().model->mass_balance().inflow;
   m.outflow = retired_outflow_ + parts_.back().model->mass_balance().outflow;
+  m.pending_inflow = parts_.front().model->mass_balance().pending_inflow;  // a 2D gate's
   return m;
 }
 

@@ -617,6 +617,10 @@ MarkerMass MarkerSet::mass() const {
   r.area = a * static_cast<double>(r.count);
   r.injected_area = a * static_cast<double>(r.injected);
   r.removed_area = a * static_cast<double>(r.removed);
+  double acc = 0.0;  // only the rank of column 0 injects; the others hold no accumulators
+  for (double v : acc_) acc += v;
+  MPI_Allreduce(&acc, &r.pending_area, 1, MPI_DOUBLE, MPI_SUM, comm_);
+  r.pending_area *= a;
   return r;
 }
 

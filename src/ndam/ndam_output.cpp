@@ -76,6 +76,9 @@ core::MassBalance NdamSolver::mass_balance() const {
     m.current = marker_mass_.area;
     m.inflow = marker_mass_.injected_area;
     m.outflow = marker_mass_.removed_area;
+    // a gate's fractions of a marker (an interface's pending mass is the coupled ledger's,
+    // Interface::carried)
+    if (cfg_.inflow && !inflow_mass_) m.pending_inflow = marker_mass_.pending_area;
     return m;
   }
   m.initial = m.current = static_cast<double>(fluid_cells_) * cfg_.grid.dx() * cfg_.grid.dz();

@@ -47,6 +47,10 @@ struct MassBalance {
   double current = 0.0;   ///< mass now
   double inflow = 0.0;    ///< cumulative mass that entered through boundaries
   double outflow = 0.0;   ///< cumulative mass that left through boundaries
+  /// admitted through the left end's gate and not yet part of the state: the 2D gate lets its
+  /// discharge in as whole markers, and each open marker row carries its fraction of a marker
+  /// (under one marker per row) to the next steps. The gate's h_in u_in t = inflow + this.
+  double pending_inflow = 0.0;
   double defect() const { return current - initial - inflow + outflow; }
 };
 

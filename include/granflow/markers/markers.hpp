@@ -80,6 +80,7 @@ struct MarkerMass {
   long long injected = 0;  ///< injected since construction
   long long removed = 0;   ///< removed at outflows or by remove_if since construction
   double area = 0.0, injected_area = 0.0, removed_area = 0.0;  ///< the counts times A_m
+  double pending_area = 0.0;  ///< the inflow rows' fractions of a marker (accumulators) times A_m
 };
 
 /// Everything a checkpoint needs to restore this rank's marker set bit for bit.
