@@ -81,7 +81,8 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
                "the end of the first accepted step at or after each multiple); a check comes "
                "earlier when a wave or shock could cross the margin before it: after at most "
                "max(Margin, one slot) / max(|u_mean| + sqrt(g cos(zeta) K_act h)) of the "
-               "channel at the last check (summary.json: checks_brought_forward)",
+               "channel at the last check and of the gate's fastest and deepest inflow "
+               "(summary.json: checks_brought_forward)",
                1e-9, 1e6);
     add_double(*pl, "Rest speed", d.rest_speed,
                "[m/s] Dynamic layout: material moving slower than this (|u_mean|) is at rest: a "
