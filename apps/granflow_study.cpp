@@ -188,6 +188,18 @@ int compare_cmd(int argc, char** argv) {
   std::ofstream ce(out + "/compare_errors.csv"), av(out + "/average_velocity.csv");
   ce << "t,quantity,max_rel,l2_rel,points\n" << std::setprecision(8);
   av << "t,u_avg_ref,u_avg_test,rel_error\n" << std::setprecision(8);
+  // A run that stopped before its end time has outputs up to the stop only; the table says so
+  // (an independent run: a test run stopped by exit 3 at 0.74 s gave a table ending at 0.7 s
+  // without a word).
+  for (const std::string& dir : {ref_dir, test_dir}) {
+    std::ifstream in(dir + "/summary.json");
+    if (!in) continue;  // a run directory without a summary (still running): nothing to say
+    const auto sj = nlohmann::json::parse(in, nullptr, false);
+    if (sj.is_discarded() || sj.value("status", std::string("completed")) == "completed") continue;
+    std::cout << "note: " << dir << " " << sj.value("status", std::string("?")) << " at t = "
+              << sj.value("final_time", 0.0) << " s (" << sj.value("reason", std::string())
+              << "): it has no outputs after that\n";
+  }
   std::cout << "reference " << ref_dir << ", test " << test_dir << " (flowing: h > " << h_min
             << " m, |u| > " << u_min << " m/s)\n"
             << "     t [s] |  h max rel |   h L2 rel |  u max rel |   u L2 rel | pts | u(" << l
@@ -543,6 +555,9 @@ int budget_cmd(int argc, char** argv) {
 int main(int argc, char** argv) {
   if (argc < 2) return usage(std::cerr, 1);
   const std::string cmd = argv[1];
+  // help asked anywhere ('granflow-study compare --help' printed the usage as an error, exit 1)
+  for (int i = 1; i < argc; ++i)
+    if (std::string(argv[i]) == "--help" || std::string(argv[i]) == "-h") return usage(std::cout, 0);
   try {
     if (cmd == "compare") return compare_cmd(argc, argv);
     if (cmd == "layout") return layout_cmd(argc, argv);

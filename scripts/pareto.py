@@ -100,7 +100,8 @@ def scene_text(family, method, cell, args, directory):
     return text
 
 
-def run(build, family, method, cell, args):
+def run(build, family, method, cell, args, failures):
+    """The run's directory, or None when it failed; then failures[(method, cell)] says why."""
     name = f"{method}_{cell:g}mm"
     d = os.path.abspath(os.path.join(args.outdir, name))
     text = scene_text(family, method, cell, args, d)
@@ -125,6 +126,15 @@ def run(build, family, method, cell, args):
         if p.returncode == 3 and method != "full" and os.path.exists(summary):
             print(f"{name:22s} stopped (exit 3); kept up to its stop", flush=True)
             return d
+        # e.g. a scene that this resolution makes invalid (the dynamic layouts refuse cells
+        # coarser than a quarter of their Minimum length): the report names it and why (an
+        # independent run saw three methods vanish from the report without a word)
+        why = [l for l in p.stdout.splitlines() if l.startswith("granflow:")]
+        why = why[-1] if why else p.stdout[-300:]
+        if os.path.exists(summary) and os.path.getmtime(summary) >= t0:  # this run wrote it
+            s = json.load(open(summary))
+            why = f"{s['status']} at t = {s['final_time']:.4g} s: {s['reason']}"
+        failures[(method, cell)] = f"exit {p.returncode}: {why}"
         return None
     return d
 
@@ -218,13 +228,25 @@ def main():
     if DAM_SCENES[args.family] is None and "dam" in methods:
         methods = [m for m in methods if m != "dam"]
     build = os.path.abspath(args.build)
-    runs = {}
+    if not os.access(os.path.join(build, "apps", "granflow"), os.X_OK):
+        ap.error("BUILD %s: no apps/granflow there (give granflow's build directory)" % args.build)
+    runs, failures = {}, {}
     for c in sorted(cells, reverse=True):
         for m in methods:
-            d = run(build, args.family, m, c, args)
+            d = run(build, args.family, m, c, args, failures)
             if d:
                 runs[(m, c)] = d
-    finest = min(c for (m, c) in runs if m == "full")
+    # The reference is the finest full 2D run, and it must have completed: a stopped one ended
+    # in a traceback at the first sitting and, reused at the next, gave a table at its last
+    # output instead of the end time (an independent run).
+    finest = min(cells)
+    ref_dir = runs.get(("full", finest))
+    ref_status = (json.load(open(os.path.join(ref_dir, "summary.json"))) if ref_dir else None)
+    if ref_status is None or ref_status["status"] != "completed":
+        why = (failures.get(("full", finest)) if ref_status is None else
+               f"{ref_status['status']} at t = {ref_status['final_time']:.4g} s: {ref_status['reason']}")
+        sys.exit(f"pareto: the reference, full 2D at {finest:g} mm, did not complete ({why}); "
+                 "the report needs it (a taller box, --height, or a finer grid may)")
     ref = cl.profiles(runs[("full", finest)])
     times = sorted(ref)
     table_times = [min(times, key=lambda s: abs(s - t)) for t in (args.times or [times[-1]])]
@@ -282,6 +304,10 @@ def main():
                "before the stop; wall time, CPU time and steps are up to the stop):"]
         md += [f"- {m} {c:g} mm: {s['status']} at t = {s['final_time']:.4g} s: {s['reason']}"
                for m, c, s in stopped]
+    if failures:
+        md += ["", "Runs that failed (no rows):"]
+        md += [f"- {m} {c:g} mm: {why}" for (m, c), why in sorted(failures.items(),
+                                                                    key=lambda kv: (kv[0][1], kv[0][0]))]
     open(os.path.join(args.outdir, "pareto.md"), "w").write("\n".join(md) + "\n")
     print("\n".join(md))
     try:

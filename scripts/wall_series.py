@@ -61,8 +61,12 @@ for d in dirs:
     if tc is None:  # no sample in contact: no peaks (summary.json gives null)
         print(f"{d}: {w['samples']} samples, the material never reached the wall")
         continue
+    # a run that stopped early: its series ends at the stop, and "final" is the stop's (an
+    # independent run read a stopped run's last row as the final load)
+    ended = ("" if s.get("status", "completed") == "completed" else
+             f"; {s['status']} at t = {s['final_time']:.4g} s ({s.get('reason', '')}): the series ends there")
     print(f"{d}: {w['samples']} samples, first contact at {tc:.4f} s "
-          f"(impact window {w['impact_window']} s)")
+          f"(impact window {w['impact_window']} s){ended}")
     for k in ("force", "normal_force", "p_foot"):
         q = w[k]
         print(f"  {k:12s} impact peak {q['impact_peak']:9.1f} at +{1e3 * (q['impact_peak_time'] - tc):5.1f} ms,"
@@ -109,7 +113,10 @@ for d in dirs:
           + ("" if part >= 50.0 - 1e-9 else " (the run ends before +50 ms)"))
     last = rows[-1]
     hyd = 0.5 * rho * g * math.cos(zeta) * last["depth"] ** 2
-    print(f"  final: depth {last['depth']:.4f} m, force {last['force']:.1f} N/m = "
-          f"{last['force'] / hyd:.3f} x hydrostatic {hyd:.1f} N/m, normal {last['normal_force']:.1f}"
+    # the load is the normal force (the full normal stress, docs/numerics.md "Wall load"; the
+    # pressure integral of a pile at rest is 1.2-1.5 times it): the ratio is the normal force's
+    print(f"  {'final' if not ended else 'at the stop'}: depth {last['depth']:.4f} m, normal "
+          f"force {last['normal_force']:.1f} N/m = {last['normal_force'] / hyd:.3f} x hydrostatic "
+          f"{hyd:.1f} N/m, pressure integral {last['force']:.1f}"
           + ("" if last["contact"] else " (not in contact: a film thinner than a cell, whose "
              "row carries the viscous normal stress of a cell it barely fills)"))

@@ -202,6 +202,13 @@ granflow_study_test(compare_same_channel_finer 0 "u L2 rel"
                     compare ${_runs}/chute_1m ${_runs}/chute_1m_fine --times 0.5 --out compare_finer)
 granflow_study_test(compare_times_without_value 2 "--times needs one or more output times"
                     compare ${_runs}/chute_1m ${_runs}/chute_1m_fine --times --out compare_times_empty)
+# a run that stopped before its end time is named with its stop (an independent run compared a
+# run stopped at 0.74 s and got a table ending at 0.7 s without a word; chute_1m_stopped is
+# chute_1m_fine with a summary.json saying it stopped at 0.52 s)
+granflow_study_test(compare_names_a_stopped_run 0 "note: .*chute_1m_stopped stopped at t = 0.52 s \\(the material of the column reaches the top of the 2D box\\): it has no outputs after that"
+                    compare ${_runs}/chute_1m ${_runs}/chute_1m_stopped --times 0.5 --out compare_stopped)
+# help is not an error ('compare --help' printed the usage to stderr with exit 1)
+granflow_study_test(compare_help 0 "usage: granflow-study compare" compare --help)
 granflow_study_test(budget_reversed_window 2 "--from 1 s is not before --to 0.5 s"
                     budget ${_runs}/chute_1m --from 1.0 --to 0.5)
 
@@ -449,6 +456,14 @@ granflow_script_test(compare_layouts_unknown_set 1 "--set 'Bogus=1': the dynamic
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --set Bogus=1)
 granflow_script_test(compare_layouts_bad_set_value 2 "Decomposition->Margin' = .abc.: not a decimal number"
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --set Margin=abc)
+# --set changes the dynamic run only, so only its own lists' parameters (a slope set there
+# compared a 30 deg run with the 50 deg reference, exit 0; an independent run)
+granflow_script_test(compare_layouts_set_outside_the_layout 1 "--set 'Slope angle=30': 'Slope angle' is a parameter of Channel, which the reference run shares"
+                     compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --set "'Slope angle=30'")
+granflow_script_test(compare_layouts_no_build 2 "BUILD /nonexistent: no apps/granflow there"
+                     compare_layouts.py /nonexistent script_refusals)
+granflow_script_test(pareto_no_build 2 "BUILD /nonexistent: no apps/granflow there"
+                     pareto.py /nonexistent script_refusals)
 granflow_script_test(find_holes_two_directories 2 "unrecognized arguments: b"
                      find_holes.py a b)
 granflow_script_test(wall_series_reversed_window 2 "'5:0': allowed: 0 <= A < B ms"
@@ -461,6 +476,17 @@ granflow_script_test(wall_series_reversed_fixed_window 2 "'0.8:0.7': allowed: 0 
 # to 0.4 s and says so
 granflow_script_test(wall_series_fixed_window_means 0 "mean over \\[0\\.15, 0\\.35\\] s: force +30\\.0 +normal +36\\.0.*mean over \\[0\\.3, 0\\.6\\] s: force +40\\.0 .*rows only on \\[0\\.3, 0\\.4\\] s"
                      wall_series.py ${_cli}/wall_series_ramp --at 0.15:0.35,0.3:0.6)
+# the final load against the hydrostatic one is the normal force's (the load; the pressure
+# integral of a pile at rest is 1.2-1.5 times it): 48 N/m against rho g h^2 / 2 = 1000 x 10 x
+# 0.05^2 / 2 = 12.5 N/m, 3.840 (an independent run found the pressure integral's ratio printed)
+granflow_script_test(wall_series_final_load_is_the_normal_force 0
+                     "final: depth 0\\.0500 m, normal force 48\\.0 N/m = 3\\.840 x hydrostatic 12\\.5 N/m"
+                     wall_series.py ${_cli}/wall_series_ramp)
+# a run that stopped says so, and its last row is the stop's, not a final load (the same series
+# with status stopped at 0.4 s)
+granflow_script_test(wall_series_stopped_run_says_so 0
+                     "stopped at t = 0\\.4 s \\(the material of the column reaches the top of the 2D box\\): the series ends there.*at the stop: depth 0\\.0500 m"
+                     wall_series.py ${_cli}/wall_series_stopped)
 
 # Error against run time (issue 12 item 5): the quick matrix of scripts/pareto.py is produced and
 # agrees with its runs' summary.json; the full matrices are long runs (label `long`; they resume
