@@ -441,6 +441,15 @@ std::unique_ptr<core::Stepper> build_model(const Scene& s, MPI_Comm comm) {
             x = on;
           }
         }
+        // A margin as long as the channel asks for 2D everywhere from the first check on
+        // (a test does it on purpose: the dynamic run then equals full 2D); a user who meant
+        // a coupled run is told (an independent run: Margin 2 m on a 1.5 m chute, accepted
+        // without a word, all 2D from 0.05 s)
+        if (d.margin >= channel.length && io_rank0(comm))
+          std::cerr << "granflow: note: parameter 'granflow->Decomposition->Margin' = "
+                    << params::str(d.margin) << " m is not shorter than the channel ("
+                    << params::str(channel.length) << " m): the first slot that asks for 2D "
+                    << "makes the whole channel 2D, and the coupling is off from then on\n";
       }
       check_two_d_parts(p.sublist("Decomposition"), channel, d, two_d.cfg.grid.dx(),
                         channel.length / cfg.cells);

@@ -259,6 +259,12 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(unused_friction_regularisation setup2_ndam.xml
                        "N-DAM->Friction regularisation' = 100: m_c of the Coulomb sliding law, and no side is Coulomb \\(Bottom = No-slip, Right = Free-slip\\)"
                        --set "N-DAM->Boundaries->Bottom" "No-slip" --set "N-DAM->Boundaries->Right" "Free-slip")
+  # a Margin as long as the channel is legal (the run turns full 2D) and said on stderr (an
+  # independent run, 2026-12-07: 2 m on a 1.5 m chute, all 2D from 0.05 s without a word);
+  # exit 0 (--code 0: only --check runs)
+  granflow_mutant_test(margin_longer_than_channel setup2_dynamic.xml
+                       "note: parameter 'granflow->Decomposition->Margin' = 1.5 m is not shorter than the channel \\(1 m\\)"
+                       --set "Decomposition->Margin" "1.5" --code 0)
   granflow_mutant_test(outflow_end_wall setup1_ndam.xml
                        "N-DAM->Boundaries->Right' = No-slip: the channel's right end is open .*allowed: Free-slip, or leave it out"
                        --set "N-DAM->Boundaries->Right" "No-slip")
