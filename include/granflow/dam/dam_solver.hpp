@@ -155,6 +155,8 @@ class DamSolver final : public core::Stepper {
   /// Mass on the current grid (end cells of the staggered grid count half).
   double mass() const;
   long positivity_fixes() const { return positivity_fixes_; }
+  /// Near-dry cells whose velocity the Riemann-invariant bound changed (step_once)
+  long thin_velocity_bounds() const { return thin_bounds_; }
   /// Depth and velocity at x from the piecewise-linear (minmod) reconstruction of the current
   /// grid, x in [x_left, x_right]; at a 1D-to-2D interface this is the state the 2D inflow takes
   /// (eq. 24) whichever of the two staggered grids is current.
@@ -244,11 +246,11 @@ class DamSolver final : public core::Stepper {
   bool staggered_new_ = false;  // the grid of the tentative state
   std::vector<double> h_new_, hu_new_;
   double in_new_ = 0.0, out_new_ = 0.0, out_flux_new_ = 0.0;
-  long fixes_new_ = 0;
+  long fixes_new_ = 0, bounds_new_ = 0;
 
   // ledger
   double mass0_ = 0.0, mass_in_ = 0.0, mass_out_ = 0.0;
-  long positivity_fixes_ = 0;
+  long positivity_fixes_ = 0, thin_bounds_ = 0;
   std::array<double, 2> last_transfer_{0.0, 0.0};
   double dt_min_ = 0.0, dt_max_ = 0.0;
 };
