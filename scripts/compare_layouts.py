@@ -377,8 +377,8 @@ def main():
         c = f"{cpu[v]:.1f}" if cpu[v] else "-"
         md.append(f"| {v} | {wall[v]:.1f} | {c} | {s['steps']} | {moves} | "
                   f"{s['mass_balance']['defect']:.2e} | {s['mass_balance']['relative_defect']:.2e} |")
-    md += ["", f"Ideal saving (share of the full 2D run's material in the dynamic run's 1D parts, "
-           f"averaged over the outputs): {100 * ideal:.1f} %; achieved (1 - {cost_name} dynamic / "
+    md += ["", f"Ideal saving (share of the full 2D run's material, its depth summed over the columns and "
+           f"the outputs, that lies in the dynamic run's 1D parts): {100 * ideal:.1f} %; achieved (1 - {cost_name} dynamic / "
            f"full): {100 * achieved:.1f} %; achieved / ideal: "
            f"{(achieved / ideal if ideal > 0 else float('nan')):.2f}.", ""]
     for v in failed:
