@@ -739,7 +739,7 @@ void DamSolver::step_once(double dt) {
     // [min(u - 2c), max(u + 2c)] of those cells, widened by what gravity adds in the step
     // (friction only brakes). A layer leaving a wall at 10 m/s, faster than 2c, opens a vacuum
     // there (the exact velocity stays in [u0 - 2 c0, u0]); cells of 1e-6 - 1e-3 m in it ran at
-    // 20-82 m/s (an independent run, 2026-12-06). Applied below a tenth of the stencil's
+    // 20-82 m/s (an independent run, 2026-12-05). Applied below a tenth of the stencil's
     // deepest cell: a wet cell keeps the scheme's own velocity.
     if (hn > cfg_.dry_depth && !held) {
       double hmax = 0.0, rmax = -std::numeric_limits<double>::infinity(), rmin = -rmax;

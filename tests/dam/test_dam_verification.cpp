@@ -410,7 +410,7 @@ TEST(DamVerification, PositivityAtFronts) {
 // is u + 2c <= u0 + 2 c0 = 11.40 m/s, u - 2c >= -u0 - 2 c0: no cell, however thin, may move
 // faster than 11.40 m/s. In the staggered scheme the cells of 1e-6 - 1e-3 m that the smeared
 // vacuum leaves at the wall took q / h from two small differences and ran at 20-82 m/s (an
-// independent run, 2026-12-06); each new cell thinner than a tenth of the cells it reads now
+// independent run, 2026-12-05); each new cell thinner than a tenth of the cells it reads now
 // takes a velocity inside their invariants (DamSolver::step_once).
 // Asserted, at every step:
 // - the semi-discrete scheme keeps every cell inside the invariant bound (measured 10.5-11.1
