@@ -320,6 +320,11 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(dam_dry_depth_above_layer dambreak_incline.xml
                        "DAM->Dry depth' = 0.02: cells shallower than it do not move, and the initial layer \\('Initial condition', Type Block\\) is only 0.1 m deep; allowed: < 0.01 m"
                        --add "DAM->Dry depth" double 0.02)
+  # exactly a tenth is refused too (0.1 x 0.1 rounds above 0.01, and 0.01 passed; an
+  # independent run, session 38)
+  granflow_mutant_test(dam_dry_depth_a_tenth_of_layer dambreak_incline.xml
+                       "DAM->Dry depth' = 0.01: cells shallower than it do not move.*allowed: < 0.01 m"
+                       --add "DAM->Dry depth" double 0.01)
   # (an independent run, session 37: accepted in a coupled scene, whose 2D parts never rebalance)
   granflow_mutant_test(coupled_load_balance setup2_dynamic.xml
                        "N-DAM->Load balance' = Columns: a setting of a full 2D box's x-slabs, and the 2D subdomains of a coupled channel keep the equal split"
