@@ -41,7 +41,8 @@ Teuchos::RCP<const Teuchos::ParameterList> DamConfig::getValidParameters() {
     add_enum(*pl, "Scheme", to_string(d.scheme),
              "NOC slope reconstruction: Minmod (TVD, for shocks, fronts and deposits) or "
              "Beam-Warming (the paper's limiter-free variant for smooth supercritical flow; "
-             "oscillates at shocks)",
+             "oscillates at shocks and kinks such as the head of a rarefaction, and its "
+             "semi-discrete form runs a thin sheet ahead of a front on a dry bed)",
              {"Minmod", "Beam-Warming"});
     add_enum(*pl, "Time stepping", "Staggered",
              "Staggered: the paper's NOC scheme (Nessyahu-Tadmor) on two time-staggered grids; "
