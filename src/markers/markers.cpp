@@ -617,11 +617,20 @@ MarkerMass MarkerSet::mass() const {
   r.area = a * static_cast<double>(r.count);
   r.injected_area = a * static_cast<double>(r.injected);
   r.removed_area = a * static_cast<double>(r.removed);
-  double acc = 0.0;  // only the rank of column 0 injects; the others hold no accumulators
-  for (double v : acc_) acc += v;
+  const double acc = inflow_pending_markers();
   MPI_Allreduce(&acc, &r.pending_area, 1, MPI_DOUBLE, MPI_SUM, comm_);
   r.pending_area *= a;
   return r;
+}
+
+double MarkerSet::inflow_pending_markers() const {
+  // Only the rank of column 0 injects (inject_rows); an imported state gives every rank a
+  // copy of the accumulators, which on the others never changes. Summed over all ranks, the
+  // two-rank runs reported the pending part twice (a review).
+  double acc = 0.0;
+  if (slab_.i0 == 0)
+    for (double v : acc_) acc += v;
+  return acc;
 }
 
 long long MarkerSet::global_count() const { return mass().count; }

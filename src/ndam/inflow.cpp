@@ -235,9 +235,7 @@ std::vector<double> NdamSolver::inflow_faces() const {
 
 double NdamSolver::inflow_pending() const {
   if (!markers_) return 0.0;
-  double acc = 0.0;
-  if (mac_.slab.i0 == 0)
-    for (double a : markers_->inflow_accumulators()) acc += a;
+  const double acc = markers_->inflow_pending_markers();
   double all = 0.0;
   MPI_Allreduce(&acc, &all, 1, MPI_DOUBLE, MPI_SUM, comm_);
   return inflow_owed_ + inflow_held_ + all * markers_->marker_area();

@@ -260,8 +260,9 @@ NdamState NdamSolver::export_state() const {
 }
 
 // The state of `s` on this box: fields, markers (this rank takes those of its columns; the
-// gate's accumulators and the global counters go to rank 0, since MarkerSet::mass() sums the
-// ranks' counters), flags from the markers, and everything derived from them.
+// global counters go to rank 0, since MarkerSet::mass() sums the ranks' counters; every rank
+// gets the gate's accumulators, of which only column 0's owner injects and counts them,
+// MarkerSet::inflow_pending_markers), flags from the markers, and everything derived from them.
 void NdamSolver::import_state(const NdamState& s) {
   if (s.nx != cfg_.grid.nx || s.nz != cfg_.grid.nz) {
     std::ostringstream os;

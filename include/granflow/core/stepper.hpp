@@ -49,7 +49,8 @@ struct MassBalance {
   double outflow = 0.0;   ///< cumulative mass that left through boundaries
   /// admitted through the left end's gate and not yet part of the state: the 2D gate lets its
   /// discharge in as whole markers, and each open marker row carries its fraction of a marker
-  /// (under one marker per row) to the next steps. The gate's h_in u_in t = inflow + this.
+  /// (under one marker per row; a series gate that closes leaves up to half a marker of either
+  /// sign) to the next steps. The gate's h_in u_in t = inflow + this.
   double pending_inflow = 0.0;
   double defect() const { return current - initial - inflow + outflow; }
 };

@@ -160,6 +160,10 @@ class MarkerSet {
   void inject(double dt, double h_in, const std::vector<double>& u_face, double volume = -1.0);
   /// The fractional accumulators of the injection rows (for checkpoints and tests).
   const std::vector<double>& inflow_accumulators() const { return acc_; }
+  /// The gate's pending markers (the rows' fractions) on this rank: the sum of the accumulators
+  /// on the rank that injects (column 0), 0 on the others, whose copies from a state import
+  /// (restart, rebuild, move) never change; sum over the ranks for the whole.
+  double inflow_pending_markers() const;
   void set_inflow_accumulators(const std::vector<double>& a) { acc_ = a; }
 
   // --- advection ------------------------------------------------------------------------------
