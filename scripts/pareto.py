@@ -129,7 +129,8 @@ def run(build, family, method, cell, args, failures):
         # e.g. a scene that this resolution makes invalid (the dynamic layouts refuse cells
         # coarser than a quarter of their Minimum length): the report names it and why (an
         # independent run saw three methods vanish from the report without a word)
-        why = [l for l in p.stdout.splitlines() if l.startswith("granflow:")]
+        why = [l for l in p.stdout.splitlines()
+               if l.startswith("granflow:") and not l.startswith("granflow: note:")]
         why = why[-1] if why else p.stdout[-300:]
         if os.path.exists(summary) and os.path.getmtime(summary) >= t0:  # this run wrote it
             s = json.load(open(summary))
@@ -228,8 +229,7 @@ def main():
     if DAM_SCENES[args.family] is None and "dam" in methods:
         methods = [m for m in methods if m != "dam"]
     build = os.path.abspath(args.build)
-    if not os.access(os.path.join(build, "apps", "granflow"), os.X_OK):
-        ap.error("BUILD %s: no apps/granflow there (give granflow's build directory)" % args.build)
+    cl.check_build(ap, args.build)
     runs, failures = {}, {}
     for c in sorted(cells, reverse=True):
         for m in methods:

@@ -44,7 +44,7 @@ for q, c in (("h", "C0"), ("u_mean", "C1")):
     e = [r for r in err if r["quantity"] == q and r["l2_rel"] != ""]
     for key, style, lab in (("max_rel", "o-", "max"), ("l2_rel", "s--", "L2")):
         pts = [(float(r["t"]), float(r[key])) for r in e if float(r[key]) > 0.0]
-        zeros[q] = max(zeros.get(q, 0), len(e) - len(pts))
+        zeros[q] = max(zeros.get(q, 0), sum(1 for r in e if float(r[key]) == 0.0))
         if pts:
             ax[1, 0].semilogy([p[0] for p in pts], [p[1] for p in pts], style, color=c,
                               label=f"{q} {lab}")

@@ -58,13 +58,13 @@ for d in dirs:
     zeta = math.radians(par["Channel"]["Slope angle"])
     rows = [{k: float(v) for k, v in r.items()} for r in csv.DictReader(open(d + "/wall.csv"))]
     tc = w["first_contact_time"]
-    if tc is None:  # no sample in contact: no peaks (summary.json gives null)
-        print(f"{d}: {w['samples']} samples, the material never reached the wall")
-        continue
     # a run that stopped early: its series ends at the stop, and "final" is the stop's (an
     # independent run read a stopped run's last row as the final load)
     ended = ("" if s.get("status", "completed") == "completed" else
              f"; {s['status']} at t = {s['final_time']:.4g} s ({s.get('reason', '')}): the series ends there")
+    if tc is None:  # no sample in contact: no peaks (summary.json gives null)
+        print(f"{d}: {w['samples']} samples, the material never reached the wall{ended}")
+        continue
     print(f"{d}: {w['samples']} samples, first contact at {tc:.4f} s "
           f"(impact window {w['impact_window']} s){ended}")
     for k in ("force", "normal_force", "p_foot"):
@@ -113,10 +113,11 @@ for d in dirs:
           + ("" if part >= 50.0 - 1e-9 else " (the run ends before +50 ms)"))
     last = rows[-1]
     hyd = 0.5 * rho * g * math.cos(zeta) * last["depth"] ** 2
-    # the load is the normal force (the full normal stress, docs/numerics.md "Wall load"; the
-    # pressure integral of a pile at rest is 1.2-1.5 times it): the ratio is the normal force's
+    # the load is the normal force, the full normal stress (docs/numerics.md "Wall load": a pile
+    # at rest carries deviatoric normal stress too), not the pressure integral
+    ratio = f"{last['normal_force'] / hyd:.3f} x" if hyd > 0 else "(no depth at the wall:) no ratio to the"
     print(f"  {'final' if not ended else 'at the stop'}: depth {last['depth']:.4f} m, normal "
-          f"force {last['normal_force']:.1f} N/m = {last['normal_force'] / hyd:.3f} x hydrostatic "
+          f"force {last['normal_force']:.1f} N/m = {ratio} hydrostatic "
           f"{hyd:.1f} N/m, pressure integral {last['force']:.1f}"
           + ("" if last["contact"] else " (not in contact: a film thinner than a cell, whose "
              "row carries the viscous normal stress of a cell it barely fills)"))

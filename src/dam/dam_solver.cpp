@@ -742,7 +742,7 @@ void DamSolver::step_once(double dt) {
     // there (the exact velocity stays in [u0 - 2 c0, u0]); cells of 1e-6 - 1e-3 m in it ran at
     // 20-82 m/s (an independent run, 2026-12-05). Applied below a tenth of the stencil's
     // deepest cell: a wet cell keeps the scheme's own velocity.
-    if (hn > cfg_.dry_depth && !held) {
+    if (hn > cfg_.dry_depth && !held && !wall_centred(j, nn, !on_b)) {  // (a wall cell: u = 0)
       double hmax = 0.0, rmax = -std::numeric_limits<double>::infinity(), rmin = -rmax;
       for (std::size_t k = L - 1; k <= R + 1; ++k) {
         hmax = std::max(hmax, h[k]);

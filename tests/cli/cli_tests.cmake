@@ -487,9 +487,9 @@ granflow_script_test(wall_series_reversed_fixed_window 2 "'0.8:0.7': allowed: 0 
 # to 0.4 s and says so
 granflow_script_test(wall_series_fixed_window_means 0 "mean over \\[0\\.15, 0\\.35\\] s: force +30\\.0 +normal +36\\.0.*mean over \\[0\\.3, 0\\.6\\] s: force +40\\.0 .*rows only on \\[0\\.3, 0\\.4\\] s"
                      wall_series.py ${_cli}/wall_series_ramp --at 0.15:0.35,0.3:0.6)
-# the final load against the hydrostatic one is the normal force's (the load; the pressure
-# integral of a pile at rest is 1.2-1.5 times it): 48 N/m against rho g h^2 / 2 = 1000 x 10 x
-# 0.05^2 / 2 = 12.5 N/m, 3.840 (an independent run found the pressure integral's ratio printed)
+# the final load against the hydrostatic one is the normal force's (the load: the full normal
+# stress, docs/numerics.md "Wall load"): 48 N/m against rho g h^2 / 2 = 1000 x 10 x 0.05^2 / 2 =
+# 12.5 N/m, 3.840 (an independent run found the pressure integral's ratio printed)
 granflow_script_test(wall_series_final_load_is_the_normal_force 0
                      "final: depth 0\\.0500 m, normal force 48\\.0 N/m = 3\\.840 x hydrostatic 12\\.5 N/m"
                      wall_series.py ${_cli}/wall_series_ramp)
