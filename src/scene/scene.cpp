@@ -200,7 +200,8 @@ void add_scene_header(ParameterList& pl, const std::string& model) {
   params::add_enum(pl, "Model", model,
                    "which model runs the scene: DAM (1D depth-averaged, paper section 3), "
                    "N-DAM (full 2D, paper section 2), Coupled (subdomains along the channel, "
-                   "paper section 4; 1D subdomains now, 2D ones with the 2D chute model)",
+                   "paper section 4: 1D subdomains with the DAM, 2D ones with the 2D free-surface chute; "
+                   "the Decomposition list sets their layout, static, a priori or dynamic)",
                    model_names());
 }
 void add(ParameterList& pl, const RCP<const ParameterList>& sub, const std::string& doc) {
