@@ -174,11 +174,15 @@ def profiles(d):
     return out
 
 
+def wall_columns(p, L, width):
+    """The depths of the columns whose centres lie within `width` of the wall at x = L (at least
+    the wall column; a centre on the edge counts)."""
+    return [h for x, h, *_ in p if x > L - width - 1e-9 * L] or [p[-1][1]]
+
+
 def wall_mean(p, L, width):
-    """Mean depth of the columns whose centres lie within `width` of the wall at x = L (at least
-    the wall column): the deposit depth at the wall on a width that does not shrink with the
-    cells."""
-    sel = [h for x, h, *_ in p if x > L - width - 1e-9 * L] or [p[-1][1]]  # (a centre on the edge)
+    """The deposit depth at the wall on a width that does not shrink with the cells."""
+    sel = wall_columns(p, L, width)
     return sum(sel) / len(sel)
 
 
@@ -377,8 +381,7 @@ def main():
                   f"{'-' if r['shock'] is None else '%.3f' % r['shock']} | {r['interfaces']} |")
     # (an independent run at 10 mm found the two wall figures equal in every row, with no word
     # why: the width is one column there)
-    ncol = sum(1 for x, *_ in prof["full"][table_times[0]] if x > L - args.wall_width - 1e-9 * L)
-    if ncol <= 1:
+    if len(wall_columns(prof["full"][table_times[0]], L, args.wall_width)) <= 1:
         md += ["", f"At this grid the last {100 * args.wall_width:g} cm is the wall column alone: "
                    "the two wall figures are the same (a wider --wall-width averages more)."]
     md += ["", "| run | wall time [s] | CPU time [s] | steps | moves | mass defect [m^2] | relative defect |",

@@ -9,7 +9,6 @@
 # few checks, as it does with the shipped 5 ms interval.
 source "$SRC/record_lib.sh"
 rm -rf dynamic_checks && mkdir dynamic_checks && cd dynamic_checks || exit 1
-json() { python3 -c "import json,sys; s=json.load(open('$1')); print($2)"; }
 # dyn XML DIR CHECK_INTERVAL: the record scene as a dynamic coupled run to 0.1 s
 dyn() {
   scene "$SRC/record_ndam.xml" "$1" -e "s|value=\"record_dir\"/>|value=\"$2\"/>|" \
@@ -17,12 +16,11 @@ dyn() {
     -e 's|"Model" type="string" value="N-DAM"|"Model" type="string" value="Coupled"|' \
     -e "s|<ParameterList name=\"Material\">|<ParameterList name=\"Decomposition\"><Parameter name=\"Layout\" type=\"string\" value=\"Dynamic\"/><Parameter name=\"Models\" type=\"Array(string)\" value=\"{1D, 2D}\"/><Parameter name=\"Interfaces\" type=\"Array(double)\" value=\"{0.95}\"/><Parameter name=\"Check interval\" type=\"double\" value=\"$3\"/><Parameter name=\"Hold time\" type=\"double\" value=\"$3\"/></ParameterList><ParameterList name=\"DAM\"><Parameter name=\"Cells\" type=\"int\" value=\"100\"/></ParameterList>&|"
 }
-created() { json "$1/summary.json" "min((m['t'] for m in s['solver_statistics']['coupled']['domain_manager']['log'] if m['after'].startswith('2D')), default=-1)"; }
 dyn short.xml short 0.005
 expect 0 "completed at t = 0.1 s" short.xml
 dyn long.xml long 10
 expect 0 "completed at t = 0.1 s" long.xml
-t_short=$(created short); t_long=$(created long)
+t_short=$(gate_part_created short); t_long=$(gate_part_created long)
 early=$(json long/summary.json "s['solver_statistics']['coupled']['domain_manager']['checks_brought_forward']")
 echo "gate part created at $t_short s (Check interval 5 ms) and $t_long s (10 s, $early checks brought forward)"
 # The signal from the gate needs max(Margin, slot) / (u_in + sqrt(beta h_in)) = 0.05 / 0.86 s =

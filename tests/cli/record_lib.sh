@@ -26,5 +26,14 @@ scene() {
   sed "$@" "$in" > "$out"
 }
 
+# json FILE EXPR: a value of a summary.json (python3's json module; the file is `s`)
+json() { python3 -c "import json,sys; s=json.load(open('$1')); print($2)"; }
+
+# gate_part_created DIR: when the domain manager first made the channel's upstream end 2D (-1:
+# never), from DIR/summary.json's move log
+gate_part_created() {
+  json "$1/summary.json" "min((m['t'] for m in s['solver_statistics']['coupled']['domain_manager']['log'] if m['after'].startswith('2D')), default=-1)"
+}
+
 # rows_at FILE T: the profiles.csv rows of output time T
 rows_at() { grep -E "^$2," "$1"; }

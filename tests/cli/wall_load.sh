@@ -14,8 +14,6 @@ nd() { scene "$SRC/record_ndam.xml" "$1" -e "s|value=\"record_dir\"/>|value=\"$2
        -e "s|\"End time\" type=\"double\" value=\"0.02\"|\"End time\" type=\"double\" value=\"$3\"|" \
        -e 's|"Interval" type="double" value="0.01"|"Interval" type="double" value="0.05"|' \
        -e 's|"Checkpoint" type="bool" value="false"|"Checkpoint" type="bool" value="true"|' "${@:4}"; }
-# json FILE EXPR: a value of summary.json (python3's json module)
-json() { python3 -c "import json,sys; s=json.load(open('$1')); print($2)"; }
 
 # 1. A straight run to 0.7 s.
 nd straight.xml straight 0.7
@@ -159,7 +157,7 @@ gate_balance dyn || fail "coupled dynamic: injected + pending is not h_in u_in t
 nd dyn1d.xml dyn1d 0.3 -e 's|"Model" type="string" value="N-DAM"|"Model" type="string" value="Coupled"|' \
    -e 's|<ParameterList name="Material">|<ParameterList name="Decomposition"><Parameter name="Layout" type="string" value="Dynamic"/><Parameter name="Models" type="Array(string)" value="{1D, 2D}"/><Parameter name="Interfaces" type="Array(double)" value="{0.95}"/></ParameterList><ParameterList name="DAM"><Parameter name="Cells" type="int" value="100"/></ParameterList>&|'
 expect 0 "completed at t = 0.3 s" dyn1d.xml
-created=$(json dyn1d/summary.json "min((m['t'] for m in s['solver_statistics']['coupled']['domain_manager']['log'] if m['after'].startswith('2D')), default=-1)")
+created=$(gate_part_created dyn1d)
 python3 -c "import sys; sys.exit(0 if 0 < $created < 0.3 else 1)" ||
   fail "the manager did not create the gate's 2D part during the run (first at $created s)"
 gate_balance dyn1d || fail "a created gate part: injected + pending is not h_in u_in t"
