@@ -113,14 +113,116 @@ def variant_xml(family, variant, args, outdir):
     return text, d
 
 
-def reusable(build, scene, text, summary, statuses=("completed",)):
-    """A run of `text` already made by BUILD's granflow: the same scene, a summary whose status
-    is one of `statuses` (by default: it completed) and is newer than the binary (an older one
-    is another build's)."""
+def scene_parameters(text):
+    """The parameters a scene's XML sets: {path tuple: (type, value text)}."""
+    out = {}
+
+    def walk(pl, prefix):
+        for ch in pl:
+            if ch.tag == "Parameter":
+                out[prefix + (ch.get("name"),)] = (ch.get("type"), ch.get("value"))
+            elif ch.tag == "ParameterList":
+                walk(ch, prefix + (ch.get("name"),))
+
+    walk(ET.fromstring(text), ())
+    return out
+
+
+def same_value(typ, text, value):
+    """Whether the scene's text of a parameter of type `typ` is the value summary.json records."""
+    def num(a, b):
+        a, b = float(a), float(b)
+        return a == b or abs(a - b) <= 1e-12 * max(abs(a), abs(b))
+    try:
+        if typ in ("double", "int"):
+            return num(text, value)
+        if typ == "bool":
+            return (text.strip().lower() == "true") == bool(value)
+        if typ.startswith("Array"):
+            items = lambda v: [q.strip() for q in str(v).strip().strip("{}").split(",") if q.strip()]
+            a, b = items(text), items(value)
+            if typ == "Array(string)":
+                return a == b
+            return len(a) == len(b) and all(num(x, y) for x, y in zip(a, b))
+        return str(text) == str(value)
+    except (TypeError, ValueError):
+        return False
+
+
+def reuse_refusal(build, scene, text, summary, statuses=("completed",)):
+    """Why the run in summary's directory is not a run of `text` made by BUILD's granflow that
+    can stand in the report, or None when it is: the scene file the same text, summary.json
+    readable, with a status in `statuses` (by default: it completed), newer than the binary (an
+    older one is another build's), and recording every parameter the scene sets with the
+    scene's value (a run directory copied from another scene, grid or end time was taken
+    before: an independent run); profiles.csv whole: every row numbers, its output times as
+    many as summary.json counts, the last at the run's final time when it completed (a cut
+    file gave a table of 0.008 against 0.067 before). A run that is not reusable is run again."""
     exe = os.path.join(build, "apps", "granflow")
-    return (os.path.exists(summary) and os.path.exists(scene) and open(scene).read() == text
-            and os.path.getmtime(summary) >= os.path.getmtime(exe)
-            and json.load(open(summary)).get("status") in statuses)
+    if not (os.path.exists(summary) and os.path.exists(scene) and open(scene).read() == text):
+        return "no earlier run of this scene"
+    if os.path.getmtime(summary) < os.path.getmtime(exe):
+        return "made by another build"
+    try:
+        s = json.load(open(summary))
+    except (OSError, ValueError, UnicodeDecodeError) as e:
+        return "summary.json unreadable (%s)" % e.__class__.__name__
+    if not isinstance(s, dict) or s.get("status") not in statuses:
+        return "summary.json: status %s" % (s.get("status") if isinstance(s, dict) else "missing")
+    try:
+        recorded = s["parameters"]
+        for path, (typ, value) in scene_parameters(text).items():
+            v = recorded
+            for key in path:
+                v = v[key]
+            if not same_value(typ, value, v):
+                return "summary.json records %s = %s, the scene %s" % ("->".join(path), v, value)
+        final, count = float(s["final_time"]), int(s["outputs"]["output_times"])
+        s["wall_time"]["total"], s["steps"], s["mass_balance"]["defect"]
+    except (KeyError, TypeError, ValueError) as e:
+        return "summary.json incomplete (%s %s)" % (e.__class__.__name__, e)
+    prof = os.path.join(os.path.dirname(summary), "profiles.csv")
+    try:
+        times = {}
+        with open(prof) as f:
+            rows = csv.DictReader(f)
+            for r in rows:
+                vals = [float(r[k]) for k in ("t", "x", "h", "u_mean")]
+                if not all(math.isfinite(v) for v in vals):
+                    raise ValueError("a value not finite")
+                t = round(vals[0], 9)
+                times[t] = times.get(t, 0) + 1
+    except (OSError, ValueError, TypeError, KeyError, UnicodeDecodeError) as e:
+        return "profiles.csv unreadable (%s)" % e
+    if len(times) != count:
+        return "profiles.csv holds %d output times, summary.json counts %d" % (len(times), count)
+    # one row per column of the channel at every output (these scripts give the 1D parts the 2D
+    # columns' width): a file cut inside an output has fewer at its last time
+    short = [t for t, n in times.items() if n != max(times.values())]
+    if short:
+        return "profiles.csv has fewer rows at t = %g s than at the other outputs" % min(short)
+    if s["status"] == "completed" and abs(max(times) - final) > 1e-6 * max(1.0, final):
+        return "profiles.csv ends at t = %g s, the run at %g s" % (max(times), final)
+    return None
+
+
+def reusable(build, scene, text, summary, statuses=("completed",)):
+    """A run of `text` already made by BUILD's granflow that the report can take as it is
+    (reuse_refusal); says why not when an earlier run is there but cannot be taken."""
+    why = reuse_refusal(build, scene, text, summary, statuses)
+    if why and os.path.exists(os.path.dirname(summary)) and why != "no earlier run of this scene":
+        print("  %s: not reused (%s); running it again" % (os.path.dirname(summary), why),
+              flush=True)
+    return why is None
+
+
+def cost_seconds(s):
+    """A run's cost from its summary.json: its CPU time from the start of the run
+    (cpu_time.run_seconds: without the process's start-up of 0.25-0.4 s, which was 35-45 % of
+    a 10 mm 2D run's figure and 7-10 times a 1D run's computing; an independent run), else the
+    process's CPU time, else the wall time. Shared with pareto.py."""
+    c = s.get("cpu_time", {})
+    return c.get("run_seconds", c.get("process_seconds", s["wall_time"]["total"]))
 
 
 def check_scene(build, args):
@@ -255,6 +357,14 @@ def check_build(ap, build):
         ap.error("BUILD %s: no apps/granflow there (give granflow's build directory)" % build)
 
 
+def check_outdir(ap, outdir):
+    """OUTDIR must be a directory or a path that can be one (an existing file ended in a
+    FileExistsError traceback; an independent run). Shared with pareto.py."""
+    if os.path.exists(outdir) and not os.path.isdir(outdir):
+        ap.error("OUTDIR %s: a file is there; allowed: a directory, or a path where one can be "
+                 "made" % outdir)
+
+
 def check_options(ap, args, positive=()):
     """Refuses (argparse's exit 2) --end, --height and --interval unless >= 1e-9 (the run's
     time resolution; smaller positive numbers overflowed the grid arithmetic), the given
@@ -266,8 +376,10 @@ def check_options(ap, args, positive=()):
                                             ("--interval", args.interval, 1e-9)):
         if v is not None and not (v >= least and math.isfinite(v)):
             ap.error("%s %g: allowed: a number >= %g" % (opt, v, least))
-    if args.times is not None and not all(t >= 0 and math.isfinite(t) for t in args.times):
-        ap.error("--times %s: allowed: output times >= 0 s" % " ".join("%g" % t for t in args.times))
+    # (t = 0: nothing flows yet, and the errors over the flowing part were nan; an independent run)
+    if args.times is not None and not all(t > 0 and math.isfinite(t) for t in args.times):
+        ap.error("--times %s: allowed: output times > 0 s (at t = 0 nothing flows)" %
+                 " ".join("%g" % t for t in args.times))
     on_grid = lambda t: (abs(t / args.interval - round(t / args.interval)) <= 1e-6 or
                          (args.end is not None and abs(t - args.end) <= 1e-9 * max(1.0, t)))
     off = [t for t in args.times or [] if not on_grid(t)]
@@ -301,6 +413,7 @@ def main():
     # misspelt --set name was found after three variants had run)
     check_options(ap, args, (("--cell", args.cell, 1e-3), ("--wall-width", args.wall_width, 1e-9)))
     check_build(ap, args.build)
+    check_outdir(ap, args.outdir)
     coarsest = 100.0 * FAMILIES[args.family]["length"]  # [mm] 10 cells along the channel
     if args.cell is not None and args.cell > coarsest:
         ap.error("--cell %g: allowed: a cell size in [0.001, %g] mm (10 cells along the channel "
@@ -316,9 +429,9 @@ def main():
     prof = {v: profiles(d) for v, d in dirs.items()}
     summ = {v: json.load(open(os.path.join(d, "summary.json"))) for v, d in dirs.items()}
     times = sorted(prof["full"])
-    table_times = args.times or [t for t in times if t > 0][-4:]
+    table_times = sorted(set(args.times)) if args.times else [t for t in times if t > 0][-4:]
     table_times = [min(times, key=lambda s: abs(s - t)) for t in table_times]
-    late = [t for t, s in zip(args.times or [], table_times) if abs(s - t) > 1e-6]
+    late = [t for t in sorted(set(args.times or [])) if min(abs(s - t) for s in times) > 1e-6]
     if late:
         sys.exit("compare_layouts: --times %s: not output times of the full 2D run (every %g s "
                  "to %g s)" % (" ".join("%g" % t for t in late), args.interval, times[-1]))
@@ -350,9 +463,9 @@ def main():
                 mat_1d += h
     ideal = mat_1d / mat_all if mat_all > 0 else 0.0
     wall = {v: summ[v]["wall_time"]["total"] for v in variants}
-    # the saving from CPU time where both runs report it (a shared machine's other jobs
-    # inflate wall times), else from wall time
-    cpu = {v: summ[v].get("cpu_time", {}).get("process_seconds") for v in variants}
+    # the saving from the runs' CPU time where both report it (cost_seconds), else from wall
+    # time
+    cpu = {v: (cost_seconds(summ[v]) if "cpu_time" in summ[v] else None) for v in variants}
     cost = cpu if cpu["dynamic"] and cpu["full"] else wall
     cost_name = "CPU time" if cost is cpu else "wall time"
     achieved = 1.0 - cost["dynamic"] / cost["full"] if cost["full"] > 0 else 0.0

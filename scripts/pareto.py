@@ -5,8 +5,10 @@
             [--height H] [--times T ...] [--quick] [--rerun]
 
 Runs (or reuses: a run whose scene and summary.json say it completed, or stopped with a
-diagnosis, made by BUILD's granflow (its summary newer than the binary), is not run again, so
-the matrix can be built over several sittings) for every resolution in --cells:
+diagnosis, made by BUILD's granflow (its summary newer than the binary), whose summary.json
+records the scene's parameters and whose profiles.csv is whole, is not run again, so the matrix
+can be built over several sittings; a run that fails these checks is run again) for every
+resolution in --cells, every method to the same end time (--end, else the full 2D scene's):
   full            full 2D (N-DAM)
   static          the paper's static layout
   apriori         the a priori layout of a DAM run (paper section 4.1)
@@ -14,18 +16,23 @@ the matrix can be built over several sittings) for every resolution in --cells:
   dynamic_tight   the domain manager with thresholds 0.05 / 0.025 (more 2D)
   dynamic_loose   the domain manager with thresholds 0.2 / 0.1 (less 2D)
   dam             the DAM alone
-The reference is the finest full 2D run (for the lab chute the 2.5 mm run, with a Richardson
-estimate of its own error from 5 and 2.5 mm, first order assumed: e_ref ~ |f_5 - f_2.5|).
+The reference is the finest full 2D run, made first (for the lab chute the 2.5 mm run), with a
+Richardson estimate of its own error from the next coarser full run, first order assumed:
+e_ref ~ |f_c - f_f| / (c / f - 1); methods whose u_mean errors lie closer together than it are
+listed as not ranked by this reference.
 Errors are the relative L2 and max of h and u_mean over the flowing part of the reference
 (h > 1 mm, |u_mean| > 1 mm/s) at the given times, the reference sampled at each run's columns;
-the deposit depth at the wall; the run's wall time and steps from its summary.json.
+the deposit depth at the wall; the run's wall time, CPU time of the run itself (without the
+process's start-up; with --repeat N the median of N runs and their range) and steps from its
+summary.json.
 Writes OUTDIR/pareto.csv, OUTDIR/pareto.md and OUTDIR/pareto.png (log-log error of u_mean
-against run time, one marker per method and resolution). A method that stops with exit 3 (a
+against CPU time, one marker per method and resolution). A method that stops with exit 3 (a
 static layout whose 1D part the shock enters may) keeps its rows up to the stop, and pareto.md
 says where and why it stopped; the reference must complete.
 
---quick: Setup II at 10 and 5 mm to 0.6 s with full, static, dynamic and dam (about a minute;
-what the test suite runs to check that the report is made and agrees with the runs).
+--quick: Setup II at 10 and 5 mm to 0.5 s with full, static, dynamic and dam, the table at 0.4
+and 0.5 s, before the front reaches the wall (seconds; what the test suite runs to check that
+the report is made and agrees with the runs).
 """
 import argparse
 import csv
@@ -65,6 +72,12 @@ def dynamic_block(upper=None, lower=None, interfaces=None):
     return "\n".join(lines) + "\n  </ParameterList>"
 
 
+def end_time(family):
+    """The family's full 2D scene's End time: the time every method runs to without --end."""
+    text = open(os.path.join(ROOT, "inputs", FAMILIES[family]["full"])).read()
+    return float(re.search(r'name="End time" type="double" value="([^"]*)"', text).group(1))
+
+
 def scene_text(family, method, cell, args, directory):
     spec = FAMILIES[family]
     L = spec["length"]
@@ -93,8 +106,10 @@ def scene_text(family, method, cell, args, directory):
                                            text).group(1))
         text = cl.set_param(text, "Height", "double", h)
         text = cl.set_param(text, "Cells z", "int", int(round(h / dx)))
-    if args.end:
-        text = cl.set_param(text, "End time", "double", args.end)
+    # every method to the same end time: --end, else the full 2D scene's (setup2_dam.xml runs to
+    # 1.5 s, and the DAM rows' steps and times were those of 1.5 s in a table at 0.75 s; an
+    # independent run)
+    text = cl.set_param(text, "End time", "double", args.end or end_time(family))
     text = cl.set_param(text, "Interval", "double", args.interval)
     text = cl.set_param(text, "Directory", "string", directory)
     return text
@@ -138,6 +153,47 @@ def run(build, family, method, cell, args, failures):
         failures[(method, cell)] = f"exit {p.returncode}: {why}"
         return None
     return d
+
+
+def median(v):
+    v = sorted(v)
+    n = len(v)
+    return v[n // 2] if n % 2 else 0.5 * (v[n // 2 - 1] + v[n // 2])
+
+
+def repeat_costs(build, d, n):
+    """The cost of the run in d (cost_seconds), timed n times: its own, and n - 1 runs more of
+    its scene (d + '.xml') into d + '.repeat', each checked to give the run's profiles.csv to
+    the last bit. The samples are kept in d + '.costs.json' for the next sitting, as long as the
+    run in d is the same (its summary.json's time)."""
+    summary = os.path.join(d, "summary.json")
+    samples = [cl.cost_seconds(json.load(open(summary)))]
+    if n == 1:
+        return samples
+    store, key = d + ".costs.json", os.path.getmtime(summary)
+    try:
+        kept = json.load(open(store))
+        if kept.get("summary_mtime") == key and kept.get("samples", [None])[0] == samples[0]:
+            samples = kept["samples"]
+    except (OSError, ValueError, AttributeError):
+        pass
+    text = open(d + ".xml").read()
+    rep_dir = d + ".repeat"
+    while len(samples) < n:
+        scene = rep_dir + ".xml"
+        open(scene, "w").write(cl.set_param(text, "Directory", "string", rep_dir))
+        subprocess.run([os.path.join(build, "apps", "granflow"), "--overwrite", scene],
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        s = json.load(open(os.path.join(rep_dir, "summary.json")))
+        if open(os.path.join(rep_dir, "profiles.csv")).read() != \
+                open(os.path.join(d, "profiles.csv")).read():
+            sys.exit(f"pareto: a repeat of {os.path.basename(d)} gave other profiles than the "
+                     "run itself; its cost cannot be taken as the same run's")
+        samples.append(cl.cost_seconds(s))
+        json.dump({"summary_mtime": key, "samples": samples}, open(store, "w"))
+    print(f"{os.path.basename(d):22s} cost over {n} runs: median {median(samples[:n]):.2f} s, "
+          f"range {min(samples[:n]):.2f}-{max(samples[:n]):.2f} s", flush=True)
+    return samples[:n]
 
 
 def sample(ref, test):
@@ -195,7 +251,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     ap.add_argument("build")
     ap.add_argument("outdir")
-    ap.add_argument("--family", default="setup2", choices=sorted(FAMILIES))
+    ap.add_argument("--family", choices=sorted(FAMILIES), help="default: setup2")
     ap.add_argument("--cells", type=float, nargs="*", help="[mm] resolutions (default 5 2.5 1.3)")
     ap.add_argument("--methods", nargs="*", choices=METHODS, help="default: all")
     ap.add_argument("--end", type=float)
@@ -204,11 +260,27 @@ def main():
     ap.add_argument("--times", type=float, nargs="*")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--rerun", action="store_true")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="time every run this many times and report the median cost with its "
+                         "range (default 1: one sample; identical runs on this shared 2-core "
+                         "machine spread by up to 60 %% in CPU time)")
     args = ap.parse_args()
     if args.quick:
-        args.family, args.cells, args.end = "setup2", [10.0, 5.0], args.end or 0.6
+        # (an independent run: --quick --family lab_chute --cells 2.5 --end 0 ran Setup II at
+        # 10 and 5 mm without a word)
+        given = [o for o, v in (("--family", args.family), ("--cells", args.cells),
+                                ("--end", args.end)) if v is not None]
+        if given:
+            ap.error("--quick with %s: --quick is Setup II at 10 and 5 mm to 0.5 s; allowed "
+                     "with it: --methods, --times, --interval, --repeat, --rerun" % ", ".join(given))
+        # to 0.5 s, the table at 0.4 and 0.5 s: the front is still on the chute (at 0.6 s it
+        # reached the wall, and the errors there moved by 3 times with the output interval)
+        args.family, args.cells, args.end = "setup2", [10.0, 5.0], 0.5
         args.methods = args.methods or ["full", "static", "dynamic", "dam"]
-        args.times = args.times or [0.4, 0.6]
+        args.times = args.times or [0.4, 0.5]
+    args.family = args.family or "setup2"
+    if args.repeat < 1:
+        ap.error("--repeat %d: allowed: a whole number >= 1" % args.repeat)
     # (an independent run: --cells 0 ended in a ZeroDivisionError, -10 in a ValueError, and
     # --times between or beyond the outputs were taken as the nearest output without a word)
     # (at least 10 cells along the channel: --cells 5000 gave 'Cells x' = 0, and a denormal
@@ -224,6 +296,7 @@ def main():
         ap.error("--methods %s: allowed: a list that holds full (the reference)" %
                  " ".join(args.methods))
     cl.check_options(ap, args)  # --end, --height, --interval > 0; --times on the output grid
+    cl.check_outdir(ap, args.outdir)
     cells = args.cells or ([5.0, 2.5] if args.family == "lab_chute" else [5.0, 2.5, 1.3])
     methods = args.methods or METHODS
     if DAM_SCENES[args.family] is None and "dam" in methods:
@@ -231,37 +304,48 @@ def main():
     build = os.path.abspath(args.build)
     cl.check_build(ap, args.build)
     runs, failures = {}, {}
-    for c in sorted(cells, reverse=True):
-        for m in methods:
-            d = run(build, args.family, m, c, args, failures)
-            if d:
-                runs[(m, c)] = d
-    # The reference is the finest full 2D run, and it must have completed: a stopped one ended
-    # in a traceback at the first sitting and, reused at the next, gave a table at its last
-    # output instead of the end time (an independent run).
+    # The reference first, the finest full 2D run, and it must have completed: a stopped one
+    # ended in a traceback at the first sitting and, reused at the next, gave a table at its
+    # last output instead of the end time; made last, its failure was found after every other
+    # run (independent runs).
     finest = min(cells)
-    ref_dir = runs.get(("full", finest))
+    ref_dir = run(build, args.family, "full", finest, args, failures)
     ref_status = (json.load(open(os.path.join(ref_dir, "summary.json"))) if ref_dir else None)
     if ref_status is None or ref_status["status"] != "completed":
         why = (failures.get(("full", finest)) if ref_status is None else
                f"{ref_status['status']} at t = {ref_status['final_time']:.4g} s: {ref_status['reason']}")
+        hint = (" (a taller box, --height, may let it complete)"
+                if "top of the 2D box" in why else "")
         sys.exit(f"pareto: the reference, full 2D at {finest:g} mm, did not complete ({why}); "
-                 "the report needs it (a taller box, --height, or a finer grid may)")
+                 f"the report needs it{hint}")
+    runs[("full", finest)] = ref_dir
+    for c in sorted(cells, reverse=True):
+        for m in methods:
+            if (m, c) == ("full", finest):
+                continue
+            d = run(build, args.family, m, c, args, failures)
+            if d:
+                runs[(m, c)] = d
     ref = cl.profiles(runs[("full", finest)])
     times = sorted(ref)
-    table_times = [min(times, key=lambda s: abs(s - t)) for t in (args.times or [times[-1]])]
-    off = [t for t, s in zip(args.times or [], table_times) if abs(s - t) > 1e-6]
+    table_times = [min(times, key=lambda s: abs(s - t))
+                   for t in sorted(set(args.times or [times[-1]]))]
+    off = [t for t in sorted(set(args.times or [])) if min(abs(s - t) for s in times) > 1e-6]
     if off:
         sys.exit("pareto: --times %s: not output times of the runs (every %g s to %g s); allowed: "
                  "those output times" % (" ".join("%g" % t for t in off), args.interval, times[-1]))
-    # the reference's own error (first order: the difference to the next coarser full run)
+    costs = {k: repeat_costs(build, d, args.repeat) for k, d in runs.items()}
+    # the reference's own error, first order (Richardson): |f_c - f_f| / (r - 1) with r = c / f
+    # the ratio of the next coarser full run's cell to the reference's (the plain difference
+    # was right for r = 2 only; an independent run)
     ref_err = {}
     coarser = sorted(c for (m, c) in runs if m == "full" and c > finest)
     if coarser:
         nxt = cl.profiles(runs[("full", coarser[0])])
+        r = coarser[0] / finest
         for t in table_times:
             if t in nxt:
-                ref_err[t] = errors(ref[t], nxt[t])
+                ref_err[t] = tuple(e / (r - 1.0) for e in errors(ref[t], nxt[t]))
     rows = []
     for (m, c), d in sorted(runs.items(), key=lambda kv: (kv[0][1], METHODS.index(kv[0][0]))):
         p = cl.profiles(d)
@@ -270,13 +354,14 @@ def main():
             if t not in p:
                 continue
             eh, mh, eu, mu = errors(ref[t], p[t]) if (m, c) != ("full", finest) else (0, 0, 0, 0)
+            cs = costs[(m, c)]
             rows.append({"method": m, "cell_mm": c, "t": t, "h_L2": eh, "h_max": mh,
                          "u_L2": eu, "u_max": mu, "wall_depth": p[t][-1][1],
                          "wall_seconds": s["wall_time"]["total"],
-                         # CPU time where the run reports it (the shared machine's other jobs
-                         # inflate wall times far more); else the wall time
-                         "cpu_seconds": s.get("cpu_time", {}).get("process_seconds",
-                                                                  s["wall_time"]["total"]),
+                         "cpu_seconds": median(cs),
+                         "cpu_min": min(cs),
+                         "cpu_max": max(cs),
+                         "cpu_samples": len(cs),
                          "steps": s["steps"],
                          "status": s["status"],
                          "summary": os.path.join(d, "summary.json")})
@@ -288,14 +373,43 @@ def main():
     md = [f"# Error against run time: {args.family} (reference: full 2D at {finest:g} mm)", ""]
     for t, e in ref_err.items():
         md.append(f"Reference error estimate at t = {t:g} s (first order, |full {finest:g} mm - "
-                  f"full {coarser[0]:g} mm|): h L2 {e[0]:.3f}, u_mean L2 {e[2]:.3f}.")
-    md += ["", "| method | cell [mm] | t [s] | h L2 | h max | u_mean L2 | u_mean max | wall depth [m] | wall time [s] | CPU time [s] | steps |",
+                  f"full {coarser[0]:g} mm| / ({coarser[0]:g} / {finest:g} - 1)): h L2 {e[0]:.3f}, "
+                  f"u_mean L2 {e[2]:.3f}.")
+    cost_note = ("one sample each" if args.repeat == 1 else
+                 f"the median of {args.repeat} runs, their range in brackets")
+    md += ["", f"CPU time: of the run itself, rank 0 (summary.json cpu_time.run_seconds), {cost_note}; "
+           "identical runs on a shared machine spread (measured here up to 60 % with other jobs "
+           "on the cores), so a ranking by cost needs --repeat or differences beyond that.",
+           "", "| method | cell [mm] | t [s] | h L2 | h max | u_mean L2 | u_mean max | wall depth [m] | wall time [s] | CPU time [s] | steps |",
            "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
+        rng = (f" [{r['cpu_min']:.3g}-{r['cpu_max']:.3g}]" if r["cpu_samples"] > 1 else "")
         md.append(f"| {r['method']} | {r['cell_mm']:g} | {r['t']:g} | {r['h_L2']:.3f} | "
                   f"{r['h_max']:.3f} | {r['u_L2']:.3f} | {r['u_max']:.3f} | "
-                  f"{r['wall_depth']:.4f} | {r['wall_seconds']:.1f} | {r['cpu_seconds']:.1f} | "
+                  f"{r['wall_depth']:.4f} | {r['wall_seconds']:.3g} | {r['cpu_seconds']:.3g}{rng} | "
                   f"{r['steps']} |")
+    # Differences below the reference's own error do not rank methods (an independent run on
+    # scenes not in the repository: the coupled methods' order changed from scene to scene by
+    # 0.2-0.6 points, under the reference's 2-4 %)
+    ties = []
+    for t, e in ref_err.items():
+        for c in sorted({r["cell_mm"] for r in rows}):
+            rs = sorted((r for r in rows if r["t"] == t and r["cell_mm"] == c
+                         and (r["method"], c) != ("full", finest) and math.isfinite(r["u_L2"])),
+                        key=lambda r: r["u_L2"])
+            group = rs[:1]
+            for r in rs[1:] + [None]:
+                if r is not None and r["u_L2"] - group[-1]["u_L2"] < e[2]:
+                    group.append(r)
+                    continue
+                if len(group) > 1:
+                    ties.append(f"- t = {t:g} s, {c:g} mm: " + ", ".join(
+                        f"{g['method']} {g['u_L2']:.3f}" for g in group))
+                group = [r]
+    if ties:
+        md += ["", "u_mean L2 errors closer to each other than the reference's own error "
+               "estimate (these methods are not ranked by this reference; a finer one would):"]
+        md += ties
     stopped = [(m, c, json.load(open(os.path.join(d, "summary.json"))))
                for (m, c), d in sorted(runs.items(), key=lambda kv: (kv[0][1], kv[0][0]))]
     stopped = [(m, c, s) for m, c, s in stopped if s["status"] != "completed"]

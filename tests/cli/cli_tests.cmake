@@ -461,6 +461,14 @@ granflow_script_test(pareto_without_reference 2 "--methods dam: allowed: a list 
                      pareto.py ${CMAKE_BINARY_DIR} script_refusals --methods dam)
 granflow_script_test(pareto_times_off_grid 2 "--times 0.15: not multiples of --interval 0.1 s .nor the --end time."
                      pareto.py ${CMAKE_BINARY_DIR} script_refusals --interval 0.1 --times 0.15 0.2)
+# (an independent run: --quick --family lab_chute --cells 2.5 ran Setup II without a word, --times
+# 0 gave nan rows, an OUTDIR that is a file ended in a traceback)
+granflow_script_test(pareto_quick_takes_no_family 2 "--quick with --family, --cells: --quick is Setup II at 10 and 5 mm"
+                     pareto.py ${CMAKE_BINARY_DIR} script_refusals --quick --family lab_chute --cells 2.5)
+granflow_script_test(pareto_times_zero 2 "--times 0 0.5: allowed: output times > 0 s"
+                     pareto.py ${CMAKE_BINARY_DIR} script_refusals --times 0 0.5)
+granflow_script_test(compare_layouts_outdir_is_a_file 2 "OUTDIR .*pareto_quick.py: a file is there"
+                     compare_layouts.py ${CMAKE_BINARY_DIR} ${_cli}/pareto_quick.py)
 granflow_script_test(compare_layouts_cell_zero 2 "--cell 0: allowed: a number >= 0.001"
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --cell 0)
 granflow_script_test(compare_layouts_unknown_set 1 "--set 'Bogus=1': the dynamic scene has no parameter"

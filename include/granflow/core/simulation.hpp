@@ -126,6 +126,9 @@ class Simulation {
   RunControl rc_;
   double t0_ = 0.0;
   std::chrono::steady_clock::time_point wall0_, last_progress_;
+  /// CPU seconds of this process (user + system) when run() began: the start-up before it (MPI,
+  /// the scene's validation, the models' set-up) is not the method's cost (cpu_time.run_seconds)
+  double cpu0_ = 0.0;
   std::map<std::string, double> phase_seconds_;
   int outputs_ = 0;
   /// the layout at each output where it changed (time, pieces)
