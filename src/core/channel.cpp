@@ -52,16 +52,23 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
                              ": cannot open the file (allowed: a readable CSV file with columns "
                              "t,h,u)");
   InflowSeries s;
+  s.file_ = file;
   s.t_.clear();
   s.h_.clear();
   s.u_.clear();
   std::string line;
   int lineno = 0;
+  bool first_content = true;  // the first line that is not blank or a comment: data or the header
   while (std::getline(in, line)) {
     ++lineno;
     if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF files
     if (lineno == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);  // a UTF-8 BOM
-    if (line.find_first_not_of(" \t") == std::string::npos || line[0] == '#') continue;
+    // blank lines and comments (a '#' as the first character that is not a blank) are skipped;
+    // an indented comment, or a header after a comment, was an error before (an independent run)
+    const auto first_char = line.find_first_not_of(" \t");
+    if (first_char == std::string::npos || line[first_char] == '#') continue;
+    const bool header_allowed = first_content;
+    first_content = false;
     // Exactly three fields t,h,u (commas, or blanks in a file without commas), each a whole
     // number by params::parse_double: "0.1abc" or a fourth column is an error, not 0.1.
     std::vector<std::string> f;
@@ -82,7 +89,7 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
         why = "field " + std::to_string(k + 1) + " " + params::shown(f[k]) + " is " + why;
       }
     if (!ok) {
-      if (s.t_.empty() && lineno == 1) {
+      if (s.t_.empty() && header_allowed) {
         // A header must name the columns in the order they are read, t,h,u (a unit may follow
         // a name: 't [s]'): a file headed t,u,h had its velocities read as depths (a
         // hostile-user run), and a header of two names over three columns went unnoticed.
@@ -97,11 +104,24 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
           named = name == kNames[k];
         }
         if (named) continue;
-        throw params::InputError("parameter '" + ppath + "' = " + file + ": line 1 " +
-                                 params::shown(line) +
+        // three fields of which one is a number: a data row with a bad field, said as such (a
+        // 50 MB number on line 1 was called "neither data nor the header"; an independent run)
+        bool numeric = false;
+        for (std::size_t k = 0; f.size() == 3 && k < 3 && !numeric; ++k) {
+          double x = 0.0;
+          std::string w;
+          numeric = params::parse_double(f[k], x, w);
+        }
+        if (numeric)
+          throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
+                                   std::to_string(lineno) + " " + why +
+                                   "; allowed: three numbers t,h,u separated by commas");
+        throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
+                                 std::to_string(lineno) + " " + params::shown(line) +
                                  " is neither data nor the header t,h,u; allowed: a first line "
                                  "t,h,u (the columns in the order they are read, a unit may "
-                                 "follow each name) or none, then three numbers t,h,u per line");
+                                 "follow each name) or none, then three numbers t,h,u per line "
+                                 "(blank lines and lines starting with '#' are skipped)");
       }
       throw params::InputError("parameter '" + ppath + "' = " + file + ": line " +
                                std::to_string(lineno) + " " + why +
@@ -227,12 +247,15 @@ Teuchos::RCP<const Teuchos::ParameterList> Channel::getValidParameters() {
                "h_in u_in enters exactly (in 2D as whole markers: each open marker row carries its "
                "fraction of a marker to the next step, summary.json "
                "mass_balance.pending_at_left_end); in the DAM a subcritical gate (u_in below the wave "
-               "speed of h_in) prescribes only that discharge and takes its depth from the "
+               "speed sqrt(g cos(zeta) K(0) h_in) of h_in, with the earth-pressure coefficient "
+               "K(0) of the tanh switch at u_x = 0, the mean of K_act and K_pas, not K_act) "
+               "prescribes only that discharge and takes its depth from the "
                "channel: the critical depth over a dry or accelerating channel "
                "(docs/numerics.md)", -kMaxInflowSpeed, kMaxInflowSpeed);
     add_string(left, "Inflow series file", "",
                "CSV file with columns t,h,u (a first line may name them, t,h,u in this order, a "
-               "unit may follow each name) giving a time-dependent inflow, "
+               "unit may follow each name; blank lines and lines whose first character that is "
+               "not a blank is '#' are skipped) giving a time-dependent inflow, "
                "linear in time and held after its last row; relative to the scene file. "
                "Replaces 'Inflow depth' and 'Inflow velocity' (Inflow only)");
     auto& right = pl->sublist("Right boundary", false, "Downstream end x = L");

@@ -458,10 +458,15 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
       };
       if (!series.is_constant())
         c.inflow_volume = [series](double t0, double t1) { return series.discharge(t0, t1); };
+      // (a series names its file and its largest depth: the depth alone stood where the file
+      // name belongs; an independent run)
       if (series.max_depth() >= top)
         params::fail(where.sublist("Left boundary"),
                      series.is_constant() ? "Inflow depth" : "Inflow series file",
-                     params::str(series.max_depth()),
+                     series.is_constant()
+                         ? params::str(series.max_depth())
+                         : series.file() + " (its largest depth h = " +
+                               params::str(series.max_depth()) + " m)",
                      "the gate opening must lie below the upper half of the 2D box's top cell, "
                      "where a column stops the run; allowed: < N-DAM->Height - dz / 2 = " +
                          params::str(top) + " m (Height " + params::str(c.grid.lz) +

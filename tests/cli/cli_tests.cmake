@@ -56,6 +56,17 @@ granflow_cli_test(series_row_out_of_range 2
                   ${_cli}/bad_series_range.xml)
 granflow_cli_test(series_is_directory 2 "Inflow series file' = .*: is a directory"
                   ${_cli}/bad_series_is_directory.xml)
+# (an independent run, 2026-12-07: an indented comment or a header after a comment was refused
+# as data, a number overflowing on line 1 was "neither data nor the header", and a 2D series
+# deeper than the box showed its depth where the file name belongs)
+granflow_cli_test(series_comments_and_a_header_after_them 0 "valid scene 'series_comments'"
+                  --check ${_cli}/series_comments.xml)
+granflow_cli_test(series_overflow_on_line_one 2
+                  "Inflow series file' = .*bad_series_overflow.csv: line 1 field 3 .1e999. is too large for a double"
+                  ${_cli}/bad_series_overflow.xml)
+granflow_cli_test(series_deeper_than_the_2d_box 2
+                  "Inflow series file' = .*bad_series_above_box.csv .its largest depth h = 0.2 m.: the gate opening must lie below"
+                  ${_cli}/bad_series_above_box.xml)
 granflow_cli_test(output_directory_uncreatable 2
                   "Output->Directory' = ./proc/granflow_cannot_create/out.: the run cannot create it .*allowed: a directory that can be created and written"
                   --check ${_cli}/bad_output_uncreatable.xml)
@@ -158,6 +169,7 @@ granflow_record_test(run_directory_owned_by_one_scene run_directory.sh)
 granflow_record_test(interrupt_writes_checkpoint_and_summary interrupt.sh)
 granflow_record_test(interrupt_np2_all_ranks_stop interrupt.sh NP=2)
 granflow_record_test(dynamic_checks_bounded_by_the_gate dynamic_checks.sh)
+granflow_record_test(dynamic_gate_part_grows_leaving_nothing_unplaced dynamic_gate_grows.sh)
 set_tests_properties(cli.interrupt_np2_all_ranks_stop PROPERTIES LABELS "cli;mpi" PROCESSORS 2)
 # The sanitizer build (GRANFLOW_SANITIZE) measures ASan's shadow memory and redzones too (the DAM
 # case peaks at 647 MB against 230 MB): there the script checks the refusals but not the ratio.

@@ -25,6 +25,9 @@ class InflowSeries {
   /// for the piecewise-linear series (Simpson's rule between its rows, where h u is quadratic).
   double discharge(double t0, double t1) const;
   bool is_constant() const { return t_.size() <= 1; }
+  std::size_t rows() const { return t_.size(); }  ///< the series' rows (1: constant)
+  /// The file the series was read from, as the scene gives it (empty: constant).
+  const std::string& file() const { return file_; }
   /// The deepest opening of the series (its largest h row).
   double max_depth() const;
   /// The fastest inflow of the series (its largest |u| row; linear between rows).
@@ -33,6 +36,7 @@ class InflowSeries {
  private:
   double interp(const std::vector<double>& v, double t) const;
   std::vector<double> t_{0.0}, h_{0.0}, u_{0.0};
+  std::string file_;
 };
 
 /// An input file named in a scene: absolute as given, else relative to the scene's directory.
