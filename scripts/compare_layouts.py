@@ -183,24 +183,32 @@ def reuse_refusal(build, scene, text, summary, statuses=("completed",)):
         return "summary.json incomplete (%s %s)" % (e.__class__.__name__, e)
     prof = os.path.join(os.path.dirname(summary), "profiles.csv")
     try:
-        times = {}
+        ends = {}  # per output time: its first and last two x
         with open(prof) as f:
-            rows = csv.DictReader(f)
-            for r in rows:
-                vals = [float(r[k]) for k in ("t", "x", "h", "u_mean")]
-                if not all(math.isfinite(v) for v in vals):
-                    raise ValueError("a value not finite")
-                t = round(vals[0], 9)
-                times[t] = times.get(t, 0) + 1
+            text_p = f.read()
+        if not text_p.endswith("\n"):
+            raise ValueError("its last row is cut")  # (a cut inside a number still parses)
+        for r in csv.DictReader(text_p.splitlines()):
+            if any(r.get(k) in (None, "") for k in ("t", "x", "h", "u_mean", "eps", "model")):
+                raise ValueError("a row with missing fields")
+            vals = [float(r[k]) for k in ("t", "x", "h", "u_mean")]
+            if not all(math.isfinite(v) for v in vals):
+                raise ValueError("a value not finite")
+            e = ends.setdefault(round(vals[0], 9), [vals[1], None, vals[1]])
+            e[1], e[2] = e[2], vals[1]
     except (OSError, ValueError, TypeError, KeyError, UnicodeDecodeError) as e:
         return "profiles.csv unreadable (%s)" % e
-    if len(times) != count:
-        return "profiles.csv holds %d output times, summary.json counts %d" % (len(times), count)
-    # one row per column of the channel at every output (these scripts give the 1D parts the 2D
-    # columns' width): a file cut inside an output has fewer at its last time
-    short = [t for t, n in times.items() if n != max(times.values())]
+    if len(ends) != count:
+        return "profiles.csv holds %d output times, summary.json counts %d" % (len(ends), count)
+    # every output spans the channel: its last point half a cell short of the channel's end (a
+    # file cut inside an output ended mid-channel; the count of rows may change with a move
+    # where the 1D cells are not the 2D columns' width)
+    reach = {t: x1 + 0.5 * (x1 - x0 if x0 is not None else 0.0) for t, (_, x0, x1) in ends.items()}
+    end = max(reach.values())
+    short = [t for t, r in reach.items() if r < end - 1e-6 * max(1.0, abs(end))]
     if short:
-        return "profiles.csv has fewer rows at t = %g s than at the other outputs" % min(short)
+        return "profiles.csv ends before the channel's end at t = %g s" % min(short)
+    times = ends
     if s["status"] == "completed" and abs(max(times) - final) > 1e-6 * max(1.0, final):
         return "profiles.csv ends at t = %g s, the run at %g s" % (max(times), final)
     return None
@@ -359,10 +367,14 @@ def check_build(ap, build):
 
 def check_outdir(ap, outdir):
     """OUTDIR must be a directory or a path that can be one (an existing file ended in a
-    FileExistsError traceback; an independent run). Shared with pareto.py."""
-    if os.path.exists(outdir) and not os.path.isdir(outdir):
-        ap.error("OUTDIR %s: a file is there; allowed: a directory, or a path where one can be "
-                 "made" % outdir)
+    FileExistsError traceback, a file among its parents in a NotADirectoryError; independent
+    runs). Shared with pareto.py."""
+    p = os.path.abspath(outdir)
+    while not os.path.exists(p):
+        p = os.path.dirname(p)
+    if not os.path.isdir(p):
+        ap.error("OUTDIR %s: %s is a file; allowed: a directory, or a path where one can be "
+                 "made" % (outdir, "it" if p == os.path.abspath(outdir) else p))
 
 
 def check_options(ap, args, positive=()):

@@ -104,10 +104,10 @@ InflowSeries InflowSeries::from_csv(const std::string& file, const std::string& 
           named = name == kNames[k];
         }
         if (named) continue;
-        // three fields of which one is a number: a data row with a bad field, said as such (a
+        // a field that is a number: a data row with a bad field or a wrong count, said as such (a
         // 50 MB number on line 1 was called "neither data nor the header"; an independent run)
         bool numeric = false;
-        for (std::size_t k = 0; f.size() == 3 && k < 3 && !numeric; ++k) {
+        for (std::size_t k = 0; k < f.size() && !numeric; ++k) {
           double x = 0.0;
           std::string w;
           numeric = params::parse_double(f[k], x, w);

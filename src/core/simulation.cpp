@@ -550,15 +550,15 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   const double wall = std::chrono::duration<double>(Clock::now() - wall0_).count();
   s["wall_time"] = {{"total", wall}};
   for (const auto& [k, v] : phase_seconds_) s["wall_time"][k] = v;
-  // CPU time of this process (rank 0; user + system): on a shared machine the wall time of a
-  // run grows with the other jobs, its CPU time much less, so comparisons of methods
-  // (compare_layouts.py, pareto.py) can use it
+  // CPU time of this process (rank 0; user + system), for comparisons of methods
+  // (compare_layouts.py, pareto.py). On two shared cores other jobs inflate it as well as the
+  // wall time (identical runs spread by up to 60 %; docs/validation.md, "Error against run
+  // time"). run_seconds: from the start of the run on, the span wall_time.total measures; the
+  // process's start-up before it (MPI, the scene's validation, the models' set-up: 0.25-0.4 s
+  // here) is a fixed cost that made a 1D run's cost 7-10 times its computing in the
+  // error-against-run-time report (an independent run)
   {
     const auto [user, sys] = process_cpu_seconds();
-    // run_seconds: from the start of the run on, the span wall_time.total measures; the
-    // process's start-up before it (MPI, the scene's validation, the models' set-up: 0.25-0.4 s
-    // here) is a fixed cost that made a 1D run's cost 7-10 times its computing in the
-    // error-against-run-time report (an independent run)
     s["cpu_time"] = {{"process_seconds", user + sys}, {"user", user}, {"system", sys},
                      {"run_seconds", user + sys - cpu0_},
                      {"note", "rank 0, this process (a restart starts again from 0); "

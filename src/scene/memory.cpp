@@ -48,10 +48,12 @@ constexpr double kNdamCell = 1050.0;
 constexpr double kMomentumCell = 2080.0;
 constexpr double kMarker = 132.0;
 constexpr double kNewtonCell = 500.0;
-// [B] per row of an inflow series on every rank: the parsed rows and the copies the models hold
-// (a 2e6-row file: a peak of 300 MB in the DAM, 363 MB in 2D, against an estimate of 80 / 89 MB
-// that left it out, 110 B per row; an independent run)
-constexpr double kSeriesRow = 120.0;
+// [B] per row of an inflow series on every rank: the parsed rows and the copies the models hold.
+// A 2e6-row file: peaks of 353 MB in the DAM and 364 MB in 2D against 71 / 89 MB without it (140
+// B per row), 724 MB coupled against 84 MB (320 B per row: the parts and the factory keep copies);
+// the estimate left it out (an independent run and a review)
+constexpr double kSeriesRow = 150.0;
+constexpr double kSeriesRowCoupled = 340.0;
 
 // Volume (per unit width, m^2) that can enter through `b` on [0, T]: the integral of h u
 // (trapezoidal rule on 2000 intervals; the series are piecewise linear, h u piecewise
@@ -165,8 +167,9 @@ MemoryEstimate estimate_memory(const Scene& s, int ranks, int node_ranks) {
   e.bytes = dist * share + kBase * node_ranks;
   const double rows = static_cast<double>(channel.left.inflow.rows() + channel.right.inflow.rows());
   if (rows > 2.0) {  // (constant ends: one row each)
-    e.parts.emplace_back("inflow series", kSeriesRow * rows * node_ranks);
-    e.bytes += kSeriesRow * rows * node_ranks;
+    const double per_row = s.model == "Coupled" ? kSeriesRowCoupled : kSeriesRow;
+    e.parts.emplace_back("inflow series", per_row * rows * node_ranks);
+    e.bytes += per_row * rows * node_ranks;
   }
   return e;
 }

@@ -479,7 +479,7 @@ granflow_script_test(pareto_quick_takes_no_family 2 "--quick with --family, --ce
                      pareto.py ${CMAKE_BINARY_DIR} script_refusals --quick --family lab_chute --cells 2.5)
 granflow_script_test(pareto_times_zero 2 "--times 0 0.5: allowed: output times > 0 s"
                      pareto.py ${CMAKE_BINARY_DIR} script_refusals --times 0 0.5)
-granflow_script_test(compare_layouts_outdir_is_a_file 2 "OUTDIR .*pareto_quick.py: a file is there"
+granflow_script_test(compare_layouts_outdir_is_a_file 2 "OUTDIR .*pareto_quick.py: it is a file"
                      compare_layouts.py ${CMAKE_BINARY_DIR} ${_cli}/pareto_quick.py)
 granflow_script_test(compare_layouts_cell_zero 2 "--cell 0: allowed: a number >= 0.001"
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --cell 0)

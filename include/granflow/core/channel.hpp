@@ -26,7 +26,8 @@ class InflowSeries {
   double discharge(double t0, double t1) const;
   bool is_constant() const { return t_.size() <= 1; }
   std::size_t rows() const { return t_.size(); }  ///< the series' rows (1: constant)
-  /// The file the series was read from, as the scene gives it (empty: constant).
+  /// The file the series was read from, resolved against the scene's directory as the other
+  /// series messages name it (empty: constant).
   const std::string& file() const { return file_; }
   /// The deepest opening of the series (its largest h row).
   double max_depth() const;
