@@ -536,8 +536,10 @@ def main():
         return
     fig, ax = plt.subplots(figsize=(7, 5))
     ts = [t for t in times if t in prof["dynamic"]]
-    xs = [p[0] for p in prof["dynamic"][ts[0]]]
-    H = [[p[1] for p in prof["dynamic"][t]] for t in ts]
+    # the depth on the full run's columns: a dynamic run whose 1D cells are not the columns'
+    # width has other points after each move (numpy refused the ragged field; a review)
+    xs = [p[0] for p in prof["full"][ts[0]]]
+    H = [[p[1] for p in on_grid(prof["full"][ts[0]], prof["dynamic"][t])] for t in ts]
     if len(ts) > 1:
         from matplotlib.colors import PowerNorm
         m = ax.pcolormesh(xs, ts, H, shading="nearest", cmap="Greys", norm=PowerNorm(0.5))
