@@ -155,9 +155,10 @@ def reuse_refusal(build, scene, text, summary, statuses=("completed",)):
     readable, with a status in `statuses` (by default: it completed), newer than the binary (an
     older one is another build's), and recording every parameter the scene sets with the
     scene's value (a run directory copied from another scene, grid or end time was taken
-    before: an independent run); profiles.csv whole: every row numbers, its output times as
-    many as summary.json counts, the last at the run's final time when it completed (a cut
-    file gave a table of 0.008 against 0.067 before). A run that is not reusable is run again."""
+    before: an independent run); profiles.csv whole: whole rows of numbers ending in a newline,
+    its output times as many as summary.json counts, each reaching the channel's end, the last
+    at the run's final time when it completed (a cut file gave a table of 0.008 against 0.067
+    before). A run that is not reusable is run again."""
     exe = os.path.join(build, "apps", "granflow")
     if not (os.path.exists(summary) and os.path.exists(scene) and open(scene).read() == text):
         return "no earlier run of this scene"
@@ -208,9 +209,8 @@ def reuse_refusal(build, scene, text, summary, statuses=("completed",)):
     short = [t for t, r in reach.items() if r < end - 1e-6 * max(1.0, abs(end))]
     if short:
         return "profiles.csv ends before the channel's end at t = %g s" % min(short)
-    times = ends
-    if s["status"] == "completed" and abs(max(times) - final) > 1e-6 * max(1.0, final):
-        return "profiles.csv ends at t = %g s, the run at %g s" % (max(times), final)
+    if s["status"] == "completed" and abs(max(ends) - final) > 1e-6 * max(1.0, final):
+        return "profiles.csv ends at t = %g s, the run at %g s" % (max(ends), final)
     return None
 
 
