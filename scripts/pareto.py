@@ -18,8 +18,8 @@ resolution in --cells, every method to the same end time (--end, else the full 2
   dam             the DAM alone
 The reference is the finest full 2D run, made first (for the lab chute the 2.5 mm run), with a
 Richardson estimate of its own error from the next coarser full run, first order assumed:
-e_ref ~ |f_c - f_f| / (c / f - 1); methods whose u_mean errors lie closer together than it are
-listed as not ranked by this reference.
+e_ref ~ |f_c - f_f| / (c / f - 1); methods whose u_mean errors lie within it of the best of them
+are listed as not ranked by this reference.
 Errors are the relative L2 and max of h and u_mean over the flowing part of the reference
 (h > 1 mm, |u_mean| > 1 mm/s) at the given times, the reference sampled at each run's columns;
 the deposit depth at the wall; the run's wall time, CPU time of the run itself (without the
@@ -410,8 +410,8 @@ def main():
                         f"{g['method']} {g['u_L2']:.3f}" for g in group))
                 group = [r]
     if ties:
-        md += ["", "u_mean L2 errors closer to each other than the reference's own error "
-               "estimate (these methods are not ranked by this reference; a finer one would):"]
+        md += ["", "u_mean L2 errors within the reference's own error estimate of the best of their "
+               "group (these methods are not ranked by this reference; a finer one would):"]
         md += ties
     stopped = [(m, c, json.load(open(os.path.join(d, "summary.json"))))
                for (m, c), d in sorted(runs.items(), key=lambda kv: (kv[0][1], kv[0][0]))]
