@@ -504,6 +504,8 @@ TEST(DomainManager, SteadySupercriticalFlowMakesNoMoveOnceSettled) {
   EXPECT_GE(settled, 1);  // it did adapt the paper's layout to the flow
   EXPECT_EQ(dm->moves(), settled);
   EXPECT_EQ(coupled(*b).layout().interfaces, layout.interfaces);
+  // and on the way there no column went back and forth (DomainManager::flickers)
+  EXPECT_EQ(dm->flickers(), 0);
 }
 
 // A move in steady supercritical flow (Setup I, open end): the interfaces of the paper's layout
