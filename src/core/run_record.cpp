@@ -1,6 +1,7 @@
 #include "granflow/core/run_record.hpp"
 
 #include "granflow/core/channel.hpp"
+#include "granflow/io/output.hpp"
 #include "granflow/params/parameters.hpp"
 
 #include <Teuchos_Array.hpp>
@@ -257,7 +258,7 @@ const std::vector<std::string>& output_file_names() {
   static const std::vector<std::string> names{
       "run.json",      "summary.json",       "profiles.csv", "profiles.csv.tmp", "fields.h5",
       "fields.xdmf",   "fields.xdmf.tmp",    "checkpoint.h5", "checkpoint.h5.tmp",
-      "run.json.tmp",  "wall.csv",           "wall.csv.tmp"};
+      "run.json.tmp",  "wall.csv",           "wall.csv.tmp",     "summary.json.tmp"};
   return names;
 }
 
@@ -484,13 +485,8 @@ void write_manifest(const std::string& dir, const RunManifest& m) {
   j["status"] = m.status;
   j["files"] = m.files;
   j["parameters"] = m.parameters;
-  const std::string tmp = dir + "/run.json.tmp";
-  {
-    std::ofstream f(tmp, std::ios::trunc);
-    f << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
-    if (!f) throw std::runtime_error("cannot write '" + tmp + "'");
-  }
-  fs::rename(tmp, dir + "/run.json");
+  io::write_file_atomic(dir + "/run.json",
+                        j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
 }
 
 }  // namespace granflow::core

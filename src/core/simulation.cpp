@@ -21,6 +21,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <functional>
 #include <sstream>
 #include <utility>
 
@@ -194,6 +195,23 @@ void agree_on_error(std::string& message) {
   MPI_Bcast(message.data(), len, MPI_CHAR, 0, MPI_COMM_WORLD);
 }
 
+// Rank 0 writes the run's files; a write that fails there (a full disk, a lost directory)
+// must stop every rank at the same point, or the others wait in the next step's collectives.
+// Every rank calls this; the error (rank 0's message) is thrown on all of them.
+void on_io_rank(const std::function<void()>& write) {
+  std::string err;
+  if (io_rank()) {
+    try {
+      write();
+    } catch (const std::exception& e) {
+      err = e.what();
+      if (err.empty()) err = "a write failed";
+    }
+  }
+  agree_on_error(err);
+  if (!err.empty()) throw std::runtime_error(err);
+}
+
 // --- interrupts ---------------------------------------------------------------------------
 // The handler only records the signal; the time loop looks at it between steps, so the step in
 // progress (a linear solve, an MPI exchange) ends normally and every rank stops at the same
@@ -218,13 +236,16 @@ extern "C" void on_signal(int sig) {
   raise(sig);  // delivered when the handler returns: the default action ends the process
 }
 
-void install(struct sigaction* old_int, struct sigaction* old_term) {
+// SIGHUP too: a closed terminal or ssh session ended a run by the default action, without a
+// summary (an independent run); now it stops as an interrupt does (exit 129).
+void install(struct sigaction* old_int, struct sigaction* old_term, struct sigaction* old_hup) {
   struct sigaction sa {};
   sa.sa_handler = on_signal;
   sigemptyset(&sa.sa_mask);
   sa.sa_flags = SA_RESTART;
   sigaction(SIGINT, &sa, old_int);
   sigaction(SIGTERM, &sa, old_term);
+  sigaction(SIGHUP, &sa, old_hup);
 }
 
 // For the run: our handler (again), the previous ones restored afterwards. A signal that came
@@ -233,19 +254,20 @@ void install(struct sigaction* old_int, struct sigaction* old_term) {
 class SignalGuard {
  public:
   SignalGuard() : installed_(g_signal == 0) {
-    if (installed_) install(&old_int_, &old_term_);
+    if (installed_) install(&old_int_, &old_term_, &old_hup_);
   }
   ~SignalGuard() {
     if (!installed_) return;
     sigaction(SIGINT, &old_int_, nullptr);
     sigaction(SIGTERM, &old_term_, nullptr);
+    sigaction(SIGHUP, &old_hup_, nullptr);
   }
   SignalGuard(const SignalGuard&) = delete;
   SignalGuard& operator=(const SignalGuard&) = delete;
 
  private:
   bool installed_;
-  struct sigaction old_int_ {}, old_term_ {};
+  struct sigaction old_int_ {}, old_term_ {}, old_hup_ {};
 };
 
 // The signal as all ranks agree on it (once per step: one integer MPI_Allreduce, so a signal
@@ -259,7 +281,7 @@ int pending_signal() {
 }
 
 const char* signal_name(int sig) {
-  return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal";
+  return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : sig == SIGHUP ? "SIGHUP" : "a signal";
 }
 
 std::string joined(const std::vector<std::string>& lines) {
@@ -326,7 +348,7 @@ std::string mpi_library() {
 }
 }  // namespace
 
-void catch_interrupts() { install(nullptr, nullptr); }
+void catch_interrupts() { install(nullptr, nullptr, nullptr); }
 
 void preflight(const Teuchos::ParameterList& validated, const RunControl& rc) {
   const auto canonical = canonical_parameters(validated, rc.scene_dir);
@@ -377,7 +399,7 @@ void Simulation::write_checkpoint() {
   c.set_text(kSceneKey, joined(canonical_));
   c.set_text(kIdentityKey, identity_);
   model_->save(c);
-  if (io_rank()) io::write_checkpoint(rc_.directory + "/checkpoint.h5", c);
+  on_io_rank([&] { io::write_checkpoint(rc_.directory + "/checkpoint.h5", c); });
   model_->restart_point();  // a restart from here and the run itself continue alike
 }
 
@@ -397,12 +419,28 @@ void Simulation::sample_wall() {
   if (w && io_rank()) io_->wall.write(model_->time(), *w);
 }
 
+// An output that cannot be written (a full disk) stops the run (exit 4) with what is kept.
 void Simulation::write_output() {
+  try {
+    write_output_files();
+  } catch (const params::InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    std::ostringstream os;
+    os << e.what() << "; the output at t = " << model_->time() << " s is incomplete";
+    if (outputs_ > 0)
+      os << "; the outputs to t = " << last_output_t_ << " s"
+         << (rc_.checkpoint ? " and their checkpoint" : "") << " are kept";
+    throw std::runtime_error(os.str());
+  }
+}
+
+void Simulation::write_output_files() {
   const auto t1 = Clock::now();
   const double t = model_->time();
   {
     const auto profile = model_->profile();
-    if (io_rank()) io_->profiles.write(t, profile);
+    on_io_rank([&] { io_->profiles.write(t, profile); });
   }
   // the layout at this output (a dynamic layout changes it between outputs)
   {
@@ -416,7 +454,7 @@ void Simulation::write_output() {
     if (layouts_.empty() || !same(layouts_.back().second, pieces))
       layouts_.emplace_back(t, std::move(pieces));
   }
-  if (io_->wall_on && io_rank()) io_->wall.flush();
+  if (io_->wall_on) on_io_rank([&] { io_->wall.flush(); });
   // memory at this output against the material it holds (issue 14 item 5: the memory a run
   // needs grows with its material cells and markers, not with its steps)
   memory_samples_.push_back(
@@ -424,7 +462,7 @@ void Simulation::write_output() {
   if (rc_.fields) {
     io::FieldWriter w;
     model_->write_fields(w);
-    if (io_rank()) io_->fields.write(t, w);
+    on_io_rank([&] { io_->fields.write(t, w); });
   }
   if (rc_.checkpoint) write_checkpoint();
   ++outputs_;
@@ -616,11 +654,26 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   // output_times: written by this run (a restart counts from its start); field_snapshots: held
   // by fields.h5 (a restart into its own directory keeps the earlier ones: it reported 7 for a
   // file of 25 before, an independent run)
+  // A restart into its own directory with Fields off keeps the earlier snapshots (cut back to
+  // its start): it reported 0 for a fields.h5 of 10 (an independent run)
+  int snapshots = 0;
+  if (io_rank()) {
+    const std::string f5 = rc_.directory + "/fields.h5";
+    if (rc_.fields) {
+      snapshots = io_->fields.snapshots();
+    } else if (std::filesystem::exists(f5)) {
+      try {
+        snapshots = static_cast<int>(io::FieldReader(f5).size());
+      } catch (const std::exception&) {
+        snapshots = 0;  // unreadable: the summary still gets written
+      }
+    }
+  }
   s["outputs"] = {{"output_times", outputs_},
                   {"output_times_note", "output times written by this run (a restart counts "
                                         "from its start); field_snapshots: the snapshots "
                                         "fields.h5 holds"},
-                  {"field_snapshots", rc_.fields && io_rank() ? io_->fields.snapshots() : 0},
+                  {"field_snapshots", snapshots},
                   {"directory", rc_.directory},
                   {"files", written}};
   if (io_->wall_on) s["wall_load"] = wall_summary();
@@ -630,10 +683,9 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   // throwing: a string that slipped through must not leave a 0-byte summary.json at the end of
   // a run whose results are on disk.
   const std::string text = s.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
-  {
-    std::ofstream f(rc_.directory + "/summary.json");
-    f << text << "\n";
-  }
+  // Written whole and then renamed (io::write_file_atomic): on a full disk it was cut to 0
+  // bytes (an independent run); now the previous summary stays and the error is reported.
+  io::write_file_atomic(rc_.directory + "/summary.json", text + "\n");
   write_manifest(rc_.directory, RunManifest{scene_name_, model_->model_name(), identity_,
                                             canonical_, files_, status});
 }
@@ -737,9 +789,18 @@ int Simulation::run() {
   if (continued_)  // the earlier parts of this run wrote into this directory too
     for (const auto& f : plan.earlier_files)
       if (std::find(files_.begin(), files_.end(), f) == files_.end()) files_.push_back(f);
-  if (io_rank())
+  if (io_rank()) {
     write_manifest(rc_.directory, RunManifest{scene_name_, model_->model_name(), identity_,
                                               canonical_, files_, "running"});
+    // A continued run's summary.json is the earlier part's ("completed" at its end time): a
+    // restart killed before its own summary left that one, while profiles.csv and the fields
+    // had gone on past it (an independent run). As a fresh run, it has none until it stops;
+    // run.json says "running".
+    if (continued_) {
+      std::error_code ec;
+      std::filesystem::remove(rc_.directory + "/summary.json", ec);
+    }
+  }
   // From here on the directory is this run's: whatever stops it leaves a summary.json.
   auto summary_then_rethrow = [&](const std::string& status, const char* what, int code) {
     try {
@@ -861,8 +922,10 @@ int Simulation::advance(const io::Checkpoint& ck) {
     phase_seconds_["check"] += std::chrono::duration<double>(Clock::now() - t2).count();
     if (!hl.ok) {
       std::ostringstream os;
-      os << hl.reason << ": " << hl.quantity << " = " << hl.value << " at x = " << hl.x
-         << " m, in the step from t = " << t << " s with dt = " << dt << " s";
+      os << hl.reason << ": " << hl.quantity << " = " << hl.value;
+      if (hl.where.empty()) os << " at x = " << hl.x << " m";
+      else os << " " << hl.where;
+      os << ", in the step from t = " << t << " s with dt = " << dt << " s";
       // a limit of the scene (hl.limit: the top of the 2D box) stops the run like a divergence,
       // but says what it is
       return hl.limit ? stop_diverged("stopped", "run stopped at a limit of the scene: ", os.str())

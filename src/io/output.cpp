@@ -1,8 +1,10 @@
 #include "granflow/io/output.hpp"
 
 #include <hdf5.h>
+#include <sys/statvfs.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -17,6 +19,36 @@ namespace granflow::io {
 namespace {
 // Output times are compared with the round-off of t += dt (the run driver's tolerance).
 bool after(double t, double t_keep) { return t > t_keep + 1e-9 * std::max(1.0, std::abs(t_keep)); }
+
+std::string shown_time(double t) {
+  std::ostringstream os;
+  os << t;
+  return os.str();
+}
+
+std::string kib(std::uintmax_t bytes) { return std::to_string((bytes + 1023) / 1024) + " kB"; }
+
+// Before HDF5 writes: a full disk inside the library left fields.h5's handle open after a
+// failed flush, and the process crashed at exit (SIGSEGV in H5F__close_cb, summary.json of 0
+// bytes; an independent run on a 2 MB file system). So the snapshot's room is checked first;
+// `reserve` keeps room for what the stop itself writes (summary.json, run.json, the index).
+void check_room(const std::string& dir, std::uintmax_t need, std::uintmax_t reserve,
+                const std::string& what) {
+  struct statvfs st {};
+  if (statvfs(dir.c_str(), &st) != 0) return;  // not known: HDF5's own errors remain
+  const std::uintmax_t room = static_cast<std::uintmax_t>(st.f_bavail) * st.f_frsize;
+  if (room < need + reserve)
+    throw std::runtime_error("the file system of '" + dir + "' has " + kib(room) + " free; " +
+                             what + " needs about " + kib(need) + " and " + kib(reserve) +
+                             " are kept for the run's summary: free space there, or write "
+                             "fewer or smaller outputs (Output->Interval, Output->Fields)");
+}
+
+// "cannot write 'file': No space left on device" (errno of the failed call; 0: none known)
+std::runtime_error write_error(const std::string& file, int err) {
+  return std::runtime_error("cannot write '" + file + "'" +
+                            (err != 0 ? std::string(": ") + std::strerror(err) : std::string()));
+}
 
 // Opens a CSV time series `file` with `header` for appending. keep_until < 0 (a fresh run):
 // truncated to the header. A restart (keep_until >= 0 and the file exists): the header and the
@@ -50,17 +82,41 @@ void open_series(std::ofstream& out, const std::string& file, const char* header
     out.open(file, std::ios::trunc);
     if (out) out << header << '\n';
   }
-  if (!out) throw std::runtime_error("cannot write '" + file + "'");
+  if (!out) throw write_error(file, errno);
   out << std::setprecision(precision);
 }
 }  // namespace
+
+void write_file_atomic(const std::string& file, const void* data, std::size_t size) {
+  const std::string tmp = file + ".tmp";
+  errno = 0;
+  std::FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw write_error(file, errno);
+  int err = 0;
+  if (std::fwrite(data, 1, size, f) != size) err = errno ? errno : EIO;
+  if (std::fflush(f) != 0 && err == 0) err = errno ? errno : EIO;
+  if (std::fclose(f) != 0 && err == 0) err = errno ? errno : EIO;
+  if (err == 0) {
+    std::error_code ec;
+    std::filesystem::rename(tmp, file, ec);
+    if (!ec) return;
+    err = ec.value();
+  }
+  std::error_code ignored;
+  std::filesystem::remove(tmp, ignored);
+  throw std::runtime_error("cannot write '" + file + "': " + std::strerror(err) +
+                           (std::filesystem::exists(file, ignored)
+                                ? " (its previous version is kept)"
+                                : ""));
+}
 
 // ---------------------------------------------------------------------------------------------
 // profiles.csv
 // ---------------------------------------------------------------------------------------------
 void ProfileWriter::open(const std::string& dir, double keep_until) {
+  file_ = dir + "/profiles.csv";
   // a restart keeps the rows up to the checkpoint time (open_series)
-  open_series(out_, dir + "/profiles.csv", "t,x,h,u_mean,eps,model", keep_until, 10,
+  open_series(out_, file_, "t,x,h,u_mean,eps,model", keep_until, 10,
               [](const std::string& line, double& t) {
                 char* end = nullptr;
                 t = std::strtod(line.c_str(), &end);
@@ -70,10 +126,24 @@ void ProfileWriter::open(const std::string& dir, double keep_until) {
 }
 
 void ProfileWriter::write(double t, const core::Profile& p) {
+  std::ostringstream rows;
+  rows.precision(out_.precision());
   for (std::size_t i = 0; i < p.x.size(); ++i)
-    out_ << t << ',' << p.x[i] << ',' << p.h[i] << ',' << p.u_mean[i] << ',' << p.eps[i] << ','
+    rows << t << ',' << p.x[i] << ',' << p.h[i] << ',' << p.u_mean[i] << ',' << p.eps[i] << ','
          << p.model[i] << '\n';
+  const std::string text = rows.str();
+  // room for the rows and for what the stop writes (summary.json, run.json): a full disk
+  // stops the run while its summary can still be written
+  const std::string dir = std::filesystem::path(file_).parent_path().string();
+  check_room(dir.empty() ? "." : dir, text.size(), 256 * 1024,
+             "writing the profiles at t = " + shown_time(t) + " s (profiles.csv)");
+  out_ << text;
+  // A row that did not reach the disk stops the run (a full disk: the rows went on being
+  // computed to the end, profiles.csv cut inside a row, and the run then blamed run.json; an
+  // independent run). A restart from the last checkpoint cuts the file back to its time.
+  errno = 0;
   out_.flush();
+  if (!out_) throw write_error(file_, errno);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -118,7 +188,8 @@ void WallWriter::open(const std::string& dir, double keep_until, double impact_w
     t = v[0];
     return true;
   };
-  open_series(out_, dir + "/wall.csv", "t,force,normal_force,shear,p_foot,depth,contact",
+  file_ = dir + "/wall.csv";
+  open_series(out_, file_, "t,force,normal_force,shear,p_foot,depth,contact",
               keep_until, 17, parse, [&](const std::string&, double t) {
                 add(t, core::WallLoad{v[1], v[2], v[3], v[4], v[5], v[6] != 0.0});
               });
@@ -132,7 +203,11 @@ void WallWriter::write(double t, const core::WallLoad& w) {
   add(t, w);
 }
 
-void WallWriter::flush() { out_.flush(); }
+void WallWriter::flush() {
+  errno = 0;
+  out_.flush();
+  if (!out_) throw write_error(file_, errno);
+}
 
 std::vector<double> WallWriter::state() const {
   std::vector<double> v{static_cast<double>(series_.samples), series_.t_first, series_.t_last,
@@ -322,6 +397,18 @@ std::vector<std::string> children(hid_t group) {
   return names;
 }
 
+// fields.h5 is read by viewers (ParaView, h5py, a monitoring script) while the run goes on.
+// HDF5's file lock then failed the run's next output ("unable to lock file, errno = 11": exit 4
+// after 3 s of a reader holding the file; an independent run). The writer does not lock: a
+// reader that holds the file open while a snapshot is written may see that snapshot
+// incomplete (reopen it); the run goes on.
+H5Handle unlocked_access() {
+  H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "create a file access property list");
+  if (H5Pset_file_locking(fapl.id, false, true) < 0)
+    throw std::runtime_error("HDF5: cannot switch off file locking" + hdf5_error_text());
+  return fapl;
+}
+
 std::string step_name(std::size_t i) {
   std::ostringstream os;
   os << "step_" << std::setw(6) << std::setfill('0') << i;
@@ -344,7 +431,8 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
     // Restart: drop the snapshots after the checkpoint time (a run stopped between its field
     // output and its checkpoint wrote them; the restart writes them again), then re-read the
     // ones kept so that the XDMF index keeps listing them.
-    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + file);
+    const auto fapl = unlocked_access();
+    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl.id), H5Fclose, "open " + file);
     for (const auto& s : children(f.id)) {
       double t = 0.0;
       {
@@ -377,11 +465,13 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
       if (k != std::string::npos)
         next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(k + 1)) + 1);
     }
-    H5Fflush(f.id, H5F_SCOPE_GLOBAL);
+    if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
+      throw std::runtime_error("HDF5: cannot write " + file + hdf5_error_text());
     write_xdmf();
     return;
   }
-  H5Handle f(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
+  const auto fapl = unlocked_access();
+  H5Handle f(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id), H5Fclose,
              "create " + file);
 }
 
@@ -421,7 +511,17 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
   quiet_hdf5();
   const std::string file = dir_ + "/fields.h5";
   {
-    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT), H5Fclose, "open " + file);
+    // the snapshot's values and about 2 kB of HDF5 structure per dataset; the reserve: the
+    // index twice (old and new) and 256 kB for the run's summary
+    std::uintmax_t need = 8192;
+    for (const auto& m : fields.meshes()) {
+      need += 8 * (m.x_nodes.size() + m.z_nodes.size()) + 2 * 2048;
+      for (const auto& f : m.cell_fields) need += 8 * f.second.size() + 2048;
+    }
+    check_room(dir_, need, 2 * xdmf_bytes_ + 256 * 1024,
+               "writing the field output at t = " + shown_time(t) + " s (fields.h5)");
+    const auto fapl = unlocked_access();
+    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl.id), H5Fclose, "open " + file);
     const std::string sname = step_name(next_index_);
     H5Handle g(H5Gcreate2(f.id, sname.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                "create group " + sname);
@@ -441,7 +541,8 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
       }
       layout.push_back(std::move(lm));
     }
-    H5Fflush(f.id, H5F_SCOPE_GLOBAL);
+    if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
+      throw std::runtime_error("HDF5: cannot write " + sname + " to " + file + hdf5_error_text());
     times_.push_back(t);
     names_.push_back(sname);
     layouts_.push_back(std::move(layout));
@@ -451,9 +552,11 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
 }
 
 void Hdf5FieldOutput::write_xdmf() const {
-  const std::string tmp = dir_ + "/fields.xdmf.tmp";
+  // Written whole, then renamed over the old index (write_file_atomic): a write that failed
+  // (a full disk) was renamed over a good fields.xdmf, leaving XML cut at 4096 or 20480 bytes
+  // (an independent run).
+  std::ostringstream x;
   {
-    std::ofstream x(tmp);
     x << std::setprecision(12);
     x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
       << "  <Grid Name=\"time series\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
@@ -491,7 +594,9 @@ void Hdf5FieldOutput::write_xdmf() const {
     }
     x << "  </Grid>\n </Domain>\n</Xdmf>\n";
   }
-  std::filesystem::rename(tmp, dir_ + "/fields.xdmf");
+  const std::string text = x.str();
+  write_file_atomic(dir_ + "/fields.xdmf", text);
+  xdmf_bytes_ = text.size();
 }
 
 void truncate_fields(const std::string& dir, double t_keep) {
@@ -563,25 +668,37 @@ std::uint64_t checksum(const Checkpoint& c) {
 
 void write_checkpoint(const std::string& file, const Checkpoint& c) {
   quiet_hdf5();
-  const std::string tmp = file + ".tmp";
+  // The file is built in memory (HDF5's core driver without a backing store) and written as
+  // one image by write_file_atomic: HDF5 never writes to the disk here.
+  std::vector<char> image;
   {
-    H5Handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-               "create " + tmp);
+    H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "create a file access property list");
+    if (H5Pset_fapl_core(fapl.id, 1 << 20, 0) < 0)
+      throw std::runtime_error("HDF5: cannot build the checkpoint in memory" + hdf5_error_text());
+    H5Handle f(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id), H5Fclose,
+               "create the checkpoint image");
     write_string_attr(f.id, "format", kFormat);
     write_string_attr(f.id, "checksum", hex(checksum(c)));
-    H5Handle s(H5Gcreate2(f.id, "scalars", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-               "create group scalars");
-    for (const auto& [k, v] : c.scalars()) write_dataset(s.id, enc(k), {v}, 1, 1);
-    H5Handle a(H5Gcreate2(f.id, "arrays", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-               "create group arrays");
-    for (const auto& [k, v] : c.arrays()) write_dataset(a.id, enc(k), v, 1, v.size());
-    H5Handle x(H5Gcreate2(f.id, "texts", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-               "create group texts");
-    for (const auto& [k, v] : c.texts()) write_text(x.id, enc(k), v);
+    {
+      H5Handle s(H5Gcreate2(f.id, "scalars", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                 "create group scalars");
+      for (const auto& [k, v] : c.scalars()) write_dataset(s.id, enc(k), {v}, 1, 1);
+      H5Handle a(H5Gcreate2(f.id, "arrays", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                 "create group arrays");
+      for (const auto& [k, v] : c.arrays()) write_dataset(a.id, enc(k), v, 1, v.size());
+      H5Handle x(H5Gcreate2(f.id, "texts", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                 "create group texts");
+      for (const auto& [k, v] : c.texts()) write_text(x.id, enc(k), v);
+    }
     if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
-      throw std::runtime_error("HDF5: cannot flush " + tmp + hdf5_error_text());
+      throw std::runtime_error("HDF5: cannot flush the checkpoint image" + hdf5_error_text());
+    const ssize_t n = H5Fget_file_image(f.id, nullptr, 0);
+    if (n <= 0) throw std::runtime_error("HDF5: cannot size the checkpoint image" + hdf5_error_text());
+    image.resize(static_cast<std::size_t>(n));
+    if (H5Fget_file_image(f.id, image.data(), image.size()) != n)
+      throw std::runtime_error("HDF5: cannot copy the checkpoint image" + hdf5_error_text());
   }
-  std::filesystem::rename(tmp, file);
+  write_file_atomic(file, image.data(), image.size());
 }
 
 Checkpoint read_checkpoint(const std::string& file) {

@@ -622,6 +622,10 @@ core::Health NdamSolver::check() const {
         h.ok = false;
         h.quantity = st == &p_stats_ ? "pressure solve" : "momentum solve";
         h.value = st->residual;
+        // a Krylov solve has a residual of the whole part, not of one place (it said "at x =
+        // 0 m"; an independent run)
+        h.where = "over the 2D part [" + detail::gstr(cfg_.x0) + ", " +
+                  detail::gstr(cfg_.x0 + cfg_.grid.lx) + "] m";
         h.reason = "Belos did not converge (relative residual " +
                    std::to_string(st->residual) + " after " + std::to_string(st->iterations) +
                    " iterations; see the solver sublist's Tolerance, Max iterations, "

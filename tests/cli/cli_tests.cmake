@@ -171,6 +171,9 @@ granflow_record_test(interrupt_np2_all_ranks_stop interrupt.sh NP=2)
 granflow_record_test(dynamic_checks_bounded_by_the_gate dynamic_checks.sh)
 granflow_record_test(dynamic_gate_part_grows_leaving_nothing_unplaced dynamic_gate_grows.sh)
 granflow_record_test(dynamic_interface_flicker_is_counted dynamic_flicker.sh)
+granflow_record_test(io_reader_kill_and_hangup io_failures.sh)
+granflow_record_test(full_disk_stops_with_a_summary full_disk.sh)
+set_tests_properties(cli.full_disk_stops_with_a_summary PROPERTIES SKIP_RETURN_CODE 77)
 set_tests_properties(cli.interrupt_np2_all_ranks_stop PROPERTIES LABELS "cli;mpi" PROCESSORS 2)
 # The sanitizer build (GRANFLOW_SANITIZE) measures ASan's shadow memory and redzones too (the DAM
 # case peaks at 647 MB against 230 MB): there the script checks the refusals but not the ratio.

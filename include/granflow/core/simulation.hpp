@@ -109,7 +109,8 @@ class Simulation {
 
  private:
   int advance(const io::Checkpoint& restart);
-  void write_output();
+  void write_output();        // write_output_files(); a failed write stops the run (exit 4)
+  void write_output_files();
   void sample_wall();
   nlohmann::json wall_summary() const;
   void write_checkpoint();

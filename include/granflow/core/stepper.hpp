@@ -85,6 +85,8 @@ struct Health {
   bool ok = true;
   std::string quantity;  ///< e.g. "h", "hu", "u"
   double x = 0.0;        ///< where [m]
+  /// where, when no single x says it (a linear solve of a whole 2D part): replaces "at x = "
+  std::string where;
   double value = 0.0;    ///< offending value
   std::string reason;    ///< e.g. "not finite", "negative depth"
   /// A limit of the scene reached (the material at the top of the 2D box), not a divergence:

@@ -36,10 +36,13 @@ class ProfileWriter {
   /// cut after its last row with t <= keep_until (+ round-off), so that a restart from a
   /// checkpoint at keep_until never repeats the rows of later output times.
   void open(const std::string& dir, double keep_until = -1.0);
+  /// Throws std::runtime_error naming the file and the system's reason when the rows cannot
+  /// be written (a full disk: the run stops, its last checkpoint kept).
   void write(double t, const core::Profile& p);
 
  private:
   std::ofstream out_;
+  std::string file_;
 };
 
 /// wall.csv: the load on the end wall (core::WallLoad) at the initial state and after every
@@ -80,6 +83,7 @@ class WallWriter {
  private:
   void add(double t, const core::WallLoad& w);
   std::ofstream out_;
+  std::string file_;
   Series series_;
   double impact_window_ = 0.05;
 };
@@ -100,6 +104,7 @@ class Hdf5FieldOutput {
   std::vector<std::string> names_;                       // group of each snapshot
   std::vector<std::vector<FieldWriter::Mesh>> layouts_;  // meshes of each snapshot
   std::size_t next_index_ = 0;                           // step_NNNNNN of the next snapshot
+  mutable std::size_t xdmf_bytes_ = 0;                   // size of the index last written
 };
 
 /// Reads the snapshots of a run's fields.h5 (granflow-study budget): their times, and one
@@ -118,7 +123,18 @@ class FieldReader {
   std::vector<std::string> groups_;
 };
 
-/// Writes `file` atomically (file.tmp, then rename) with a checksum over every entry.
+/// Writes `file` atomically: the bytes go to file.tmp, which replaces `file` only once every
+/// byte is written and closed; otherwise file.tmp is removed, `file` stays as it was, and
+/// std::runtime_error names the file and the system's reason (e.g. "No space left on device").
+void write_file_atomic(const std::string& file, const void* data, std::size_t size);
+inline void write_file_atomic(const std::string& file, const std::string& text) {
+  write_file_atomic(file, text.data(), text.size());
+}
+
+/// Writes `file` atomically (write_file_atomic) with a checksum over every entry. The HDF5 file
+/// is built in memory and written as one image, so that a full disk fails in our write (the
+/// old checkpoint kept, a message) and never inside the HDF5 library, whose failed flush left
+/// a file handle that crashed the process at exit (an independent run, session 40).
 void write_checkpoint(const std::string& file, const Checkpoint& c);
 /// Reads and verifies a checkpoint; throws CheckpointError with a message for the user when the
 /// file is unreadable, has no checksum (older format) or its data do not match the checksum.
