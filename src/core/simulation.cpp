@@ -224,6 +224,9 @@ extern "C" void on_signal(int sig) {
     g_signal = sig;
     return;
   }
+  // a hangup may come more than once (the shell passes it on, the terminal sends it): only a
+  // second SIGINT or SIGTERM means "now"
+  if (sig == SIGHUP) return;
   static const char kMessage[] =
       "granflow: a second interrupt: stopping at once, without finishing the step in progress; "
       "the files written so far stay as they are (run.json still says 'running')\n";
@@ -237,7 +240,8 @@ extern "C" void on_signal(int sig) {
 }
 
 // SIGHUP too: a closed terminal or ssh session ended a run by the default action, without a
-// summary (an independent run); now it stops as an interrupt does (exit 129).
+// summary (an independent run); now it stops as an interrupt does (exit 129). A run started
+// under nohup (SIGHUP ignored) keeps ignoring it: it is meant to outlive its terminal.
 void install(struct sigaction* old_int, struct sigaction* old_term, struct sigaction* old_hup) {
   struct sigaction sa {};
   sa.sa_handler = on_signal;
@@ -245,7 +249,10 @@ void install(struct sigaction* old_int, struct sigaction* old_term, struct sigac
   sa.sa_flags = SA_RESTART;
   sigaction(SIGINT, &sa, old_int);
   sigaction(SIGTERM, &sa, old_term);
-  sigaction(SIGHUP, &sa, old_hup);
+  struct sigaction hup {};
+  sigaction(SIGHUP, nullptr, &hup);
+  if (old_hup) *old_hup = hup;
+  if (hup.sa_handler != SIG_IGN) sigaction(SIGHUP, &sa, nullptr);
 }
 
 // For the run: our handler (again), the previous ones restored afterwards. A signal that came
@@ -438,6 +445,15 @@ void Simulation::write_output() {
 void Simulation::write_output_files() {
   const auto t1 = Clock::now();
   const double t = model_->time();
+  // Room kept for what a stop writes: summary.json grows with the run (the domain manager's
+  // log of moves, the memory samples and layouts per output; 118 kB after 96 moves): twice the
+  // models' statistics so far and 1 kB per output, at least 256 kB.
+  {
+    nlohmann::json stats;
+    model_->report(stats);
+    io::set_stop_reserve(256 * 1024 + 2 * stats.dump().size() +
+                         1024 * static_cast<std::uintmax_t>(outputs_ + 1));
+  }
   {
     const auto profile = model_->profile();
     on_io_rank([&] { io_->profiles.write(t, profile); });
@@ -678,7 +694,15 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
                   {"files", written}};
   if (io_->wall_on) s["wall_load"] = wall_summary();
   if (!io_rank()) return;
-  if (io_->wall_on) io_->wall.flush();
+  // wall.csv's last rows: a flush that fails (a full disk) is said in the summary, which is
+  // written all the same (it threw before, and a stop then left no summary at all)
+  if (io_->wall_on) {
+    try {
+      io_->wall.flush();
+    } catch (const std::exception& e) {
+      s["wall_csv_error"] = e.what();
+    }
+  }
   // Serialise before the file is opened, and replace bytes that are not UTF-8 instead of
   // throwing: a string that slipped through must not leave a 0-byte summary.json at the end of
   // a run whose results are on disk.
@@ -789,18 +813,10 @@ int Simulation::run() {
   if (continued_)  // the earlier parts of this run wrote into this directory too
     for (const auto& f : plan.earlier_files)
       if (std::find(files_.begin(), files_.end(), f) == files_.end()) files_.push_back(f);
-  if (io_rank()) {
+  on_io_rank([&] {
     write_manifest(rc_.directory, RunManifest{scene_name_, model_->model_name(), identity_,
                                               canonical_, files_, "running"});
-    // A continued run's summary.json is the earlier part's ("completed" at its end time): a
-    // restart killed before its own summary left that one, while profiles.csv and the fields
-    // had gone on past it (an independent run). As a fresh run, it has none until it stops;
-    // run.json says "running".
-    if (continued_) {
-      std::error_code ec;
-      std::filesystem::remove(rc_.directory + "/summary.json", ec);
-    }
-  }
+  });
   // From here on the directory is this run's: whatever stops it leaves a summary.json.
   auto summary_then_rethrow = [&](const std::string& status, const char* what, int code) {
     try {
@@ -853,7 +869,8 @@ int Simulation::advance(const io::Checkpoint& ck) {
     while (output_time(next_index_) <= t0_ + eps_t) ++next_index_;
     while (next_index_ > 1 && output_time(next_index_ - 1) > t0_ + eps_t) --next_index_;
   }
-  if (io_rank()) {
+  // (on rank 0, which alone touches the files; an error there stops every rank)
+  on_io_rank([&] {
     // A restart cuts profiles and fields back to the checkpoint time: a run stopped after its
     // output and before its checkpoint (or interrupted) must not leave rows or snapshots the
     // restart writes again.
@@ -869,7 +886,15 @@ int Simulation::advance(const io::Checkpoint& ck) {
     }
     if (rc_.fields) io_->fields.open(rc_.directory, keep);
     else if (continued_) io::truncate_fields(rc_.directory, t0_);
-  }
+    // A continued run's summary.json is the earlier part's ("completed" at its end time): a
+    // restart killed before its own summary left that one beside profiles.csv rows past it (an
+    // independent run). Now that its files are cut back to the checkpoint, it has none until
+    // it stops, as a fresh run; run.json says "running".
+    if (continued_) {
+      std::error_code ec;
+      std::filesystem::remove(rc_.directory + "/summary.json", ec);
+    }
+  });
   if (!restarted_) {
     model_->adapt();  // the layout of t0 (a dynamic layout's first check)
     sample_wall();

@@ -72,9 +72,9 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
                "'Hold time' (hysteresis between this and 'Shallowness threshold', so that "
                "interfaces do not flicker); must be below 'Shallowness threshold'. A band "
                "narrower than the indicator's noise (eps scatters by a few per cent in steady "
-               "flow with the markers' depth) lets an interface flicker: a column whose model "
-               "changes a third time within ten 'Hold time's is warned of and counted "
-               "(summary.json: domain_manager.flickers)",
+               "flow with the markers' depth) lets an interface flicker: a column given back "
+               "to the 1D model for the third time within twenty 'Hold time's is warned of "
+               "and counted (summary.json: domain_manager.flickers)",
                0.0, 1e6);
     add_double(*pl, "Hold time", d.hold_time,
                "[s] Dynamic layout: how long eps must stay below 'Lower threshold' before a 2D "

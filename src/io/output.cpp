@@ -26,6 +26,9 @@ std::string shown_time(double t) {
   return os.str();
 }
 
+// room kept on the disk for what a stop writes (set_stop_reserve)
+std::uintmax_t g_stop_reserve = 256 * 1024;
+
 std::string kib(std::uintmax_t bytes) { return std::to_string((bytes + 1023) / 1024) + " kB"; }
 
 // Before HDF5 writes: a full disk inside the library left fields.h5's handle open after a
@@ -87,6 +90,10 @@ void open_series(std::ofstream& out, const std::string& file, const char* header
 }
 }  // namespace
 
+void set_stop_reserve(std::uintmax_t bytes) {
+  g_stop_reserve = std::max<std::uintmax_t>(bytes, 256 * 1024);
+}
+
 void write_file_atomic(const std::string& file, const void* data, std::size_t size) {
   const std::string tmp = file + ".tmp";
   errno = 0;
@@ -135,7 +142,7 @@ void ProfileWriter::write(double t, const core::Profile& p) {
   // room for the rows and for what the stop writes (summary.json, run.json): a full disk
   // stops the run while its summary can still be written
   const std::string dir = std::filesystem::path(file_).parent_path().string();
-  check_room(dir.empty() ? "." : dir, text.size(), 256 * 1024,
+  check_room(dir.empty() ? "." : dir, text.size(), g_stop_reserve,
              "writing the profiles at t = " + shown_time(t) + " s (profiles.csv)");
   out_ << text;
   // A row that did not reach the disk stops the run (a full disk: the rows went on being
@@ -512,13 +519,13 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
   const std::string file = dir_ + "/fields.h5";
   {
     // the snapshot's values and about 2 kB of HDF5 structure per dataset; the reserve: the
-    // index twice (old and new) and 256 kB for the run's summary
+    // index twice (old and new) and the room kept for the run's summary
     std::uintmax_t need = 8192;
     for (const auto& m : fields.meshes()) {
       need += 8 * (m.x_nodes.size() + m.z_nodes.size()) + 2 * 2048;
       for (const auto& f : m.cell_fields) need += 8 * f.second.size() + 2048;
     }
-    check_room(dir_, need, 2 * xdmf_bytes_ + 256 * 1024,
+    check_room(dir_, need, 2 * xdmf_bytes_ + g_stop_reserve,
                "writing the field output at t = " + shown_time(t) + " s (fields.h5)");
     const auto fapl = unlocked_access();
     H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl.id), H5Fclose, "open " + file);
@@ -698,6 +705,9 @@ void write_checkpoint(const std::string& file, const Checkpoint& c) {
     if (H5Fget_file_image(f.id, image.data(), image.size()) != n)
       throw std::runtime_error("HDF5: cannot copy the checkpoint image" + hdf5_error_text());
   }
+  const std::string dir = std::filesystem::path(file).parent_path().string();
+  check_room(dir.empty() ? "." : dir, image.size(), g_stop_reserve,
+             "writing the checkpoint (checkpoint.h5)");
   write_file_atomic(file, image.data(), image.size());
 }
 

@@ -16,7 +16,10 @@
 //     -168 MB counted; Belos touches only the vectors it uses)                     kMomentumCell
 //   markers: 132 B each (Setup II chute 800 x 120, 2/3 full, 12 x 12 instead of 4 x 4
 //     markers per cell: +1056 MB for 8.2e6 more markers): the set, its sort and halo
-//     buffers, the checkpoint's gathered copy                                      kMarker
+//     buffers, the checkpoint's gathered copy; since the checkpoint is built in memory and
+//     written as one image (io::write_checkpoint), two more copies of its 24 B per marker
+//     on rank 0 while it is written (Setup II at 5 mm, 12 x 12 markers per cell, 7.7e4
+//     markers: peak 100.3 -> 105.1 MB, 62 B per marker with HDF5's 1 MB growth): 180 B  kMarker
 //   nonlinear pressure coupling (NOX): the Newton-Krylov basis (restart + 1) x 8 B and
 //     ~500 B of Newton vectors and preconditioner per cell (Setup II 800 x 120: +82 MB
 //     over the lagged run before it was stopped, a lower bound)                    kNewtonCell
@@ -46,7 +49,7 @@ constexpr double kBase = 80e6;
 constexpr double kDamCell = 150.0;
 constexpr double kNdamCell = 1050.0;
 constexpr double kMomentumCell = 2080.0;
-constexpr double kMarker = 132.0;
+constexpr double kMarker = 180.0;
 constexpr double kNewtonCell = 500.0;
 // [B] per row of an inflow series on every rank: the parsed rows and the copies the models hold.
 // A 2e6-row file: peaks of 353 MB in the DAM and 364 MB in 2D against 71 / 89 MB without it (140

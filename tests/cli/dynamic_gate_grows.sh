@@ -14,6 +14,13 @@ source "$SRC/record_lib.sh"
 rm -rf dynamic_gate_grows && mkdir dynamic_gate_grows && cd dynamic_gate_grows || exit 1
 cp "$SRC/dynamic_gate_grows.xml" scene.xml
 expect 0 "completed at t = 0.5 s" scene.xml
+# the gate part takes a column, gives it back and takes it again as it follows the front: a
+# layout that follows the flow, not a flicker (session 40: the first count of flickers warned
+# here)
+out=$("$EXE" scene.xml 2>&1)
+echo "$out" | grep -q "flickers" && fail "a flicker warning with the shipped hysteresis: $out"
+[ "$(json gate_grows/summary.json "s['solver_statistics']['coupled']['domain_manager']['flickers']")" = 0 ] ||
+  fail "flickers counted with the shipped hysteresis"
 s=gate_grows/summary.json
 gate_moves=$(json $s "sum(1 for m in s['solver_statistics']['coupled']['domain_manager']['log'] if m['after'].startswith('2D'))")
 unplaced=$(json $s "s['solver_statistics']['coupled']['mass_unplaced']")

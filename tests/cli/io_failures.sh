@@ -3,41 +3,48 @@
 # before:
 # 1. a reader holding fields.h5 open (ParaView, h5py, a monitoring script) stopped the run at
 #    its next output ("unable to lock file, errno = 11", exit 4): the writer no longer locks
-#    the file, the run completes and writes its snapshots while the reader holds it;
+#    the file, the run completes and writes its snapshots while the reader holds it (a
+#    continuation, so that the reader opens a whole file before the run touches it);
 # 2. a restart into its own directory, killed before it wrote its summary, left the earlier
 #    part's summary.json ("completed" at 0.3 s) beside profiles.csv rows past it: a continued
 #    run removes the earlier summary when it starts (run.json says "running");
 # 3. SIGHUP (a closed terminal) ended the run by the default action without a summary: it now
-#    stops as an interrupt does, exit 129, status interrupted, with a checkpoint.
+#    stops as an interrupt does, exit 129, status interrupted, with a checkpoint;
+# 4. ... unless it runs under nohup (SIGHUP ignored), which it respects.
 source "$SRC/record_lib.sh"
 rm -rf io_failures && mkdir io_failures && cd io_failures || exit 1
 PY=/usr/bin/python3  # with h5py (install-deps.sh)
 
-# 1. a reader holds fields.h5 from the first snapshots to the end of the run
-scene "$SRC/io_ndam10.xml" held.xml -e 's|value="io_run"|value="held"|' \
-  -e 's|name="Interval" type="double" value="0.05"|name="Interval" type="double" value="0.01"|'
-"$EXE" held.xml > held.log 2>&1 &
-pid=$!
-for _ in $(seq 1 600); do [ -s held/fields.xdmf ] && break; sleep 0.05; done
-$PY - "$pid" <<'PYEOF' > reader.log 2>&1
-import h5py, os, sys, time
-pid = int(sys.argv[1])
+# 1. a reader holds fields.h5 (written by a first part to 0.3 s) while a continuation of that
+#    run opens it, cuts it back and writes its snapshots into it (to 0.75 s, every 0.01 s)
+scene "$SRC/io_ndam10.xml" held1.xml -e 's|value="io_run"|value="held"|' \
+  -e 's|name="Interval" type="double" value="0.05"|name="Interval" type="double" value="0.01"|' \
+  -e 's|name="End time" type="double" value="0.75"|name="End time" type="double" value="0.3"|'
+expect 0 "completed at t = 0.3 s" held1.xml
+scene "$SRC/io_ndam10.xml" held2.xml -e 's|value="io_run"|value="held"|' \
+  -e 's|name="Interval" type="double" value="0.05"|name="Interval" type="double" value="0.01"|' \
+  -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="held/checkpoint.h5"/>&|'
+$PY - <<'PYEOF' > reader.log 2>&1 &
+import h5py, os, time
 f = h5py.File("held/fields.h5", "r")   # held open, as a viewer does
-n0 = len(f)
-while os.path.exists("/proc/%d" % pid) and open("/proc/%d/stat" % pid).read().split()[2] != "Z":
+print("opened", len(f), flush=True)
+while not os.path.exists("run.done"):
     time.sleep(0.05)
 f.close()
-print("snapshots when opened:", n0)
 PYEOF
-wait $pid
+rpid=$!
+for _ in $(seq 1 600); do grep -q opened reader.log && break; sleep 0.05; done
+grep -q opened reader.log || fail "the reader did not open fields.h5: $(cat reader.log)"
+"$EXE" held2.xml > held.log 2>&1
 rc=$?
-cat held.log | grep -v '^t = ' | sed 's/^/  | /'
-cat reader.log
-[ "$rc" = 0 ] || fail "the run with a reader holding fields.h5 ended with exit $rc"
-n0=$(sed -n 's/snapshots when opened: //p' reader.log)
+touch run.done
+wait $rpid
+grep -v '^t = ' held.log | sed 's/^/  | /'
+[ "$rc" = 0 ] || fail "the continuation with a reader holding fields.h5 ended with exit $rc"
+n0=$(sed -n 's/^opened //p' reader.log)
 n1=$(json held/summary.json "s['outputs']['field_snapshots']")
 echo "snapshots: $n0 when the reader opened the file, $n1 at the end"
-[ -n "$n0" ] && [ "$n1" -gt "$n0" ] || fail "no snapshot was written while the reader held the file"
+[ "$n1" -gt "$n0" ] || fail "no snapshot was written while the reader held the file"
 
 # 2. a killed continuation leaves no earlier summary behind
 scene "$SRC/io_ndam10.xml" first.xml -e 's|value="io_run"|value="cont"|' \
@@ -71,4 +78,15 @@ cat hup.log | grep -v '^t = ' | sed 's/^/  | /'
 [ "$rc" = 129 ] || fail "SIGHUP: exit $rc, expected 129"
 [ "$(json hup/summary.json "s['status']")" = interrupted ] || fail "SIGHUP: summary status $(json hup/summary.json "s['status']")"
 grep -q "SIGHUP received" hup.log || fail "SIGHUP: no line that says so"
+
+# 4. under nohup (SIGHUP ignored) the run goes on
+scene "$SRC/io_ndam10.xml" nohup.xml -e 's|value="io_run"|value="nohup"|'
+(trap '' HUP; exec "$EXE" nohup.xml > nohup.log 2>&1) &
+pid=$!
+for _ in $(seq 1 600); do [ -s nohup/checkpoint.h5 ] && break; sleep 0.02; done
+kill -HUP $pid
+wait $pid
+rc=$?
+[ "$rc" = 0 ] || fail "under nohup: exit $rc after SIGHUP; $(cat nohup.log)"
+[ "$(json nohup/summary.json "s['status']")" = completed ] || fail "under nohup: $(json nohup/summary.json "s['status']")"
 echo "io failures test passed"

@@ -71,10 +71,10 @@ class DomainManager {
   static double slot_width(double dx_1d, double dx_2d) { return std::max(dx_1d, dx_2d); }
   long moves() const { return static_cast<long>(log_.size()); }
   long checks() const { return checks_; }
-  /// Columns whose model changed a third time within kFlickerHolds 'Hold time's of the first
-  /// of those changes (2D -> 1D -> 2D -> 1D, or the reverse): an interface that flickers.
+  /// Releases (2D -> 1D) of a column that was released twice before within kFlickerHolds
+  /// 'Hold time's: an interface that flickers (book_changes).
   long flickers() const { return flickers_; }
-  static constexpr double kFlickerHolds = 10.0;
+  static constexpr double kFlickerHolds = 20.0;
 
   void save(io::Checkpoint& c) const;
   void load(const io::Checkpoint& c);
@@ -100,9 +100,9 @@ class DomainManager {
   std::vector<Move> log_;
   long checks_ = 0;
   long checks_by_speed_ = 0;  ///< checks brought before the interval by the signal speed
-  // per slot: the times of its last two model changes (-1: none); a third change within
+  // per slot: the times of its last two releases to 1D (-1: none); a third release within
   // kFlickerHolds hold times of the older one is a flicker (counted, and warned of once)
-  std::vector<double> changed_at_, changed_before_;
+  std::vector<double> released_at_, released_before_;
   long flickers_ = 0;
   double flicker_t_ = -1.0, flicker_x_ = 0.0;
   void book_changes(const std::vector<char>& cur, const std::vector<char>& tgt, double t);

@@ -123,6 +123,11 @@ class FieldReader {
   std::vector<std::string> groups_;
 };
 
+/// Room (bytes, at least 256 kB) that an output must leave free on its file system for what a
+/// stop writes (summary.json, run.json): the rows and snapshots check it before they are
+/// written, and a full disk stops the run while its summary still fits.
+void set_stop_reserve(std::uintmax_t bytes);
+
 /// Writes `file` atomically: the bytes go to file.tmp, which replaces `file` only once every
 /// byte is written and closed; otherwise file.tmp is removed, `file` stays as it was, and
 /// std::runtime_error names the file and the system's reason (e.g. "No space left on device").
