@@ -30,7 +30,7 @@ xml_ok() { python3 -c "import sys, xml.dom.minidom as m; m.parse(sys.argv[1])" "
 for kb in 700 60; do
   fill $kb
   scene "$SRC/io_ndam10.xml" run$kb.xml -e "s|value=\"io_run\"|value=\"$here/small/run\"|"
-  expect 4 "has [0-9]+ kB free; writing the (field output|profiles) at t = [0-9.e-]+ s" run$kb.xml
+  expect 4 "has [0-9]+ kB free; writing the (field output at t|profiles at t|checkpoint)" run$kb.xml
   s=small/run/summary.json
   [ "$(json $s "s['status'], s['exit_code']")" = "error 4" ] || fail "summary: $(json $s "s['status'], s['exit_code']")"
   if [ -e small/run/fields.xdmf ]; then xml_ok small/run/fields.xdmf || fail "fields.xdmf is not XML"; fi
