@@ -558,49 +558,59 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
   write_xdmf();
 }
 
+// The index: one temporal collection per mesh ("dam", "ndam"), each holding that mesh at every
+// output time. It was one temporal collection of spatial collections (a snapshot of all meshes
+// per time): ParaView's XDMF readers then named the blocks "dam[k]" and "ndam[k]" at the k-th
+// time, so a block picked by name (Extract Block, /Root/ndam) was empty after t = 0 (checked
+// with pvbatch, ParaView 5.11, the lab chute's 31 outputs). Now the XDMF reader names them
+// "dam" and "ndam" and Xdmf3ReaderT numbers them 0 and 1 at every time.
 void Hdf5FieldOutput::write_xdmf() const {
   // Written whole, then renamed over the old index (write_file_atomic): a write that failed
   // (a full disk) was renamed over a good fields.xdmf, leaving XML cut at 4096 or 20480 bytes
   // (an independent run).
+  std::vector<std::string> meshes;  // in order of first appearance
+  for (const auto& layout : layouts_)
+    for (const auto& m : layout)
+      if (std::find(meshes.begin(), meshes.end(), m.name) == meshes.end()) meshes.push_back(m.name);
   std::ostringstream x;
-  {
-    x << std::setprecision(12);
-    x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
-      << "  <Grid Name=\"time series\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  x << std::setprecision(12);
+  x << "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n";
+  for (const auto& mesh : meshes) {
+    x << "  <Grid Name=\"" << mesh << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
     for (std::size_t s = 0; s < times_.size(); ++s) {
       const std::string& sname = names_[s];
-      x << "   <Grid Name=\"" << sname << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
-        << "    <Time Value=\"" << times_[s] << "\"/>\n";
       for (const auto& m : layouts_[s]) {
+        if (m.name != mesh) continue;
         const std::size_t nx = m.x_nodes.size(), nz = m.z_nodes.size();
         const std::string base = "fields.h5:/" + sname + "/" + m.name + "/";
         // The cell fields' declared shape is the dataset's, nz - 1 x nx - 1 (also 1 x nx - 1 for
         // the 1D models' one-row strip: ParaView's XDMF reader needs the cells' shape there).
         std::ostringstream cells;
         cells << nz - 1 << " " << nx - 1;
-        x << "    <Grid Name=\"" << m.name << "\" GridType=\"Uniform\">\n"
-          << "     <Topology TopologyType=\"2DRectMesh\" Dimensions=\"" << nz << " " << nx
+        x << "   <Grid Name=\"" << m.name << "\" GridType=\"Uniform\">\n"
+          << "    <Time Value=\"" << times_[s] << "\"/>\n"
+          << "    <Topology TopologyType=\"2DRectMesh\" Dimensions=\"" << nz << " " << nx
           << "\"/>\n"
-          << "     <Geometry GeometryType=\"VXVY\">\n"
-          << "      <DataItem Dimensions=\"" << nx
+          << "    <Geometry GeometryType=\"VXVY\">\n"
+          << "     <DataItem Dimensions=\"" << nx
           << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << base
           << "x_nodes</DataItem>\n"
-          << "      <DataItem Dimensions=\"" << nz
+          << "     <DataItem Dimensions=\"" << nz
           << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << base
           << "z_nodes</DataItem>\n"
-          << "     </Geometry>\n";
+          << "    </Geometry>\n";
         for (const auto& f : m.cell_fields)
-          x << "     <Attribute Name=\"" << f.first
+          x << "    <Attribute Name=\"" << f.first
             << "\" AttributeType=\"Scalar\" Center=\"Cell\">\n"
-            << "      <DataItem Dimensions=\"" << cells.str()
+            << "     <DataItem Dimensions=\"" << cells.str()
             << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << base << f.first
-            << "</DataItem>\n     </Attribute>\n";
-        x << "    </Grid>\n";
+            << "</DataItem>\n    </Attribute>\n";
+        x << "   </Grid>\n";
       }
-      x << "   </Grid>\n";
     }
-    x << "  </Grid>\n </Domain>\n</Xdmf>\n";
+    x << "  </Grid>\n";
   }
+  x << " </Domain>\n</Xdmf>\n";
   const std::string text = x.str();
   write_file_atomic(dir_ + "/fields.xdmf", text);
   xdmf_bytes_ = text.size();
