@@ -1,6 +1,6 @@
 """Screenshots of a run's fields.xdmf as ParaView shows it (the last and the middle output):
 the 2D box's outline and its material cells (flag 1 Fluid or 2 Surface) coloured by the downslope
-velocity u. Not a CI dependency.
+velocity u, and under the bed the depth-averaged strip coloured by its u. Not a CI dependency.
 
   xvfb-run -a pvbatch scripts/paraview_snapshot.py OUTPUT_DIR/fields.xdmf PREFIX
 
@@ -13,7 +13,8 @@ time (an Extract Block of /Root/ndam works at every output).
 import sys
 
 from paraview.simple import (GetActiveViewOrCreate, GetAnimationScene, GetColorTransferFunction,
-                             ColorBy, Render, SaveScreenshot, Show, Threshold, XDMFReader)
+                             ColorBy, ExtractBlock, Render, SaveScreenshot, Show, Threshold,
+                             XDMFReader)
 
 path, out = sys.argv[1], sys.argv[2]
 r = XDMFReader(FileNames=[path])
@@ -30,6 +31,11 @@ material = Threshold(Input=r, Scalars=['CELLS', 'flag'], LowerThreshold=1, Upper
 d = Show(material, v)
 ColorBy(d, ('CELLS', 'u'))
 d.SetScalarBarVisibility(v, True)
+# the depth-averaged model's strip under the bed (a coupled run's 1D flow: u_mean, and 0 where
+# the 2D model runs); its block keeps the name 'dam' at every output
+strip = ExtractBlock(Input=r, Selectors=['/Root/dam'])
+ds = Show(strip, v)
+ColorBy(ds, ('CELLS', 'u'))
 GetColorTransferFunction('u').RescaleTransferFunction(0.0, 3.0)
 Render(v)  # paraview.simple resets the camera at a view's first render: before ours is set
 for name, t in (('last', times[-1]), ('mid', times[len(times) // 2])):
