@@ -446,12 +446,13 @@ void Simulation::write_output_files() {
   const auto t1 = Clock::now();
   const double t = model_->time();
   // Room kept for what a stop writes: summary.json grows with the run (the domain manager's
-  // log of moves, the memory samples and layouts per output; 118 kB after 96 moves): twice the
-  // models' statistics so far and 1 kB per output, at least 256 kB.
+  // log of moves, the memory samples and layouts per output; 118 kB after 96 moves, 6-23 kB
+  // for a run without moves): twice the models' statistics so far, 1 kB per output and 64 kB
+  // (run.json, the index).
   {
     nlohmann::json stats;
     model_->report(stats);
-    io::set_stop_reserve(256 * 1024 + 2 * stats.dump().size() +
+    io::set_stop_reserve(64 * 1024 + 2 * stats.dump().size() +
                          1024 * static_cast<std::uintmax_t>(outputs_ + 1));
   }
   {
@@ -821,7 +822,12 @@ int Simulation::run() {
   auto summary_then_rethrow = [&](const std::string& status, const char* what, int code) {
     try {
       write_summary(status, what, code);
-    } catch (...) {  // the original error is the one to report
+    } catch (const std::exception& e) {  // the original error is the one to report
+      // but the missing summary is said (a disk filled by another process left none, and
+      // stderr said nothing of it; an independent run)
+      if (io_rank())
+        std::cerr << "granflow: warning: summary.json could not be written: " << e.what()
+                  << "\n";
     }
   };
   try {

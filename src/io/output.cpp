@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <functional>
 #include <iomanip>
+#include <iostream>
 #include <sstream>
 #include <stdexcept>
 
@@ -27,7 +28,7 @@ std::string shown_time(double t) {
 }
 
 // room kept on the disk for what a stop writes (set_stop_reserve)
-std::uintmax_t g_stop_reserve = 256 * 1024;
+std::uintmax_t g_stop_reserve = 64 * 1024;
 
 std::string kib(std::uintmax_t bytes) { return std::to_string((bytes + 1023) / 1024) + " kB"; }
 
@@ -91,7 +92,7 @@ void open_series(std::ofstream& out, const std::string& file, const char* header
 }  // namespace
 
 void set_stop_reserve(std::uintmax_t bytes) {
-  g_stop_reserve = std::max<std::uintmax_t>(bytes, 256 * 1024);
+  g_stop_reserve = std::max<std::uintmax_t>(bytes, 64 * 1024);
 }
 
 void write_file_atomic(const std::string& file, const void* data, std::size_t size) {
@@ -439,20 +440,59 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
     // output and its checkpoint wrote them; the restart writes them again), then re-read the
     // ones kept so that the XDMF index keeps listing them.
     const auto fapl = unlocked_access();
-    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl.id), H5Fclose, "open " + file);
-    for (const auto& s : children(f.id)) {
-      double t = 0.0;
-      {
-        H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
-        t = read_attr(g.id, "time");
+    std::vector<std::pair<std::string, double>> kept;
+    std::vector<std::string> later, broken;
+    {
+      H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + file);
+      for (const auto& s : children(f.id)) {
+        try {
+          H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
+          const double t = read_attr(g.id, "time");
+          if (after(t, keep_until)) later.push_back(s);
+          else kept.emplace_back(s, t);
+        } catch (const std::runtime_error&) {
+          broken.push_back(s);
+          H5Eclear2(H5E_DEFAULT);
+        }
       }
-      if (after(t, keep_until)) {
-        // The space is not reclaimed (HDF5 keeps it; h5repack would), the link is gone.
+    }
+    if (broken.empty()) {
+      // The space is not reclaimed (HDF5 keeps it; h5repack would), the links are gone.
+      H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl.id), H5Fclose, "open " + file);
+      for (const auto& s : later)
         if (H5Ldelete(f.id, s.c_str(), H5P_DEFAULT) < 0)
           throw std::runtime_error("HDF5: cannot remove snapshot " + s + " from " + file +
                                    hdf5_error_text());
-        continue;
+      if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
+        throw std::runtime_error("HDF5: cannot write " + file + hdf5_error_text());
+    } else {
+      // A snapshot whose write failed (a disk that filled inside HDF5's write) leaves a group
+      // that cannot be opened, in a file whose links HDF5 can then no longer change either
+      // ("len not positive after adjustment for EOA"): every restart failed on it (an
+      // independent run). The run stopped before that output's checkpoint, so the snapshot is
+      // after the restart's time: the kept snapshots are copied into a new file that replaces
+      // the old one.
+      const std::string tmp = file + ".tmp";
+      {
+        H5Handle src(H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + file);
+        H5Handle dst(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id), H5Fclose,
+                     "create " + tmp);
+        for (const auto& [s, t] : kept)
+          if (H5Ocopy(src.id, s.c_str(), dst.id, s.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
+            throw std::runtime_error("HDF5: cannot copy snapshot " + s + " of " + file +
+                                     hdf5_error_text());
+        if (H5Fflush(dst.id, H5F_SCOPE_GLOBAL) < 0)
+          throw std::runtime_error("HDF5: cannot write " + tmp + hdf5_error_text());
       }
+      std::filesystem::rename(tmp, file);
+      std::string names;
+      for (const auto& s : broken) names += (names.empty() ? "" : ", ") + s;
+      std::cerr << "granflow: note: " << file << " held snapshots that cannot be read (" << names
+                << ": a write that failed); it was rewritten with the " << kept.size()
+                << " snapshots up to the checkpoint\n";
+    }
+    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + file);
+    for (const auto& [s, t] : kept) {
       H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
       times_.push_back(t);
       names_.push_back(s);
@@ -472,8 +512,6 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
       if (k != std::string::npos)
         next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(k + 1)) + 1);
     }
-    if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
-      throw std::runtime_error("HDF5: cannot write " + file + hdf5_error_text());
     write_xdmf();
     return;
   }

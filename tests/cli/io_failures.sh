@@ -10,7 +10,8 @@
 #    run removes the earlier summary when it starts (run.json says "running");
 # 3. SIGHUP (a closed terminal) ended the run by the default action without a summary: it now
 #    stops as an interrupt does, exit 129, status interrupted, with a checkpoint;
-# 4. ... unless it runs under nohup (SIGHUP ignored), which it respects.
+# 4. ... unless it runs under nohup (SIGHUP ignored), which it respects;
+# 5. a snapshot group that cannot be read (a write that failed) made every restart fail.
 source "$SRC/record_lib.sh"
 rm -rf io_failures && mkdir io_failures && cd io_failures || exit 1
 PY=/usr/bin/python3  # with h5py (install-deps.sh)
@@ -89,4 +90,19 @@ wait $pid
 rc=$?
 [ "$rc" = 0 ] || fail "under nohup: exit $rc after SIGHUP; $(cat nohup.log)"
 [ "$(json nohup/summary.json "s['status']")" = completed ] || fail "under nohup: $(json nohup/summary.json "s['status']")"
+
+# 5. a snapshot whose write failed (a disk that filled inside HDF5's write; here a group with no
+#    time, which cannot be read either) no longer fails every restart ("cannot open
+#    step_000015"; an independent run): the cut-back copies the kept snapshots (0 to 0.3 s: 7)
+#    into a new fields.h5 (a file with a broken group cannot have its links changed either)
+scene "$SRC/io_ndam10.xml" broken1.xml -e 's|value="io_run"|value="broken"|' \
+  -e 's|name="End time" type="double" value="0.75"|name="End time" type="double" value="0.3"|'
+expect 0 "completed at t = 0.3 s" broken1.xml
+$PY -c "import h5py; h5py.File('broken/fields.h5', 'a').create_group('step_000099')"
+scene "$SRC/io_ndam10.xml" broken2.xml -e 's|value="io_run"|value="broken"|' \
+  -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="broken/checkpoint.h5"/>&|'
+expect 0 "held snapshots that cannot be read \(step_000099: a write that failed\); it was rewritten with the 7 snapshots up to the checkpoint" broken2.xml
+grep -q step_000099 broken/fields.xdmf && fail "fields.xdmf still lists the broken snapshot"
+$PY -c "import h5py, sys; sys.exit('step_000099' in h5py.File('broken/fields.h5', 'r'))" ||
+  fail "fields.h5 still holds the broken snapshot"
 echo "io failures test passed"

@@ -123,7 +123,7 @@ class FieldReader {
   std::vector<std::string> groups_;
 };
 
-/// Room (bytes, at least 256 kB) that an output must leave free on its file system for what a
+/// Room (bytes, at least 64 kB) that an output must leave free on its file system for what a
 /// stop writes (summary.json, run.json): the rows and snapshots check it before they are
 /// written, and a full disk stops the run while its summary still fits.
 void set_stop_reserve(std::uintmax_t bytes);
