@@ -1,5 +1,7 @@
 #include "granflow/io/output.hpp"
 
+#include "granflow/params/parameters.hpp"
+
 #include <hdf5.h>
 #include <sys/statvfs.h>
 
@@ -21,12 +23,6 @@ namespace {
 // Output times are compared with the round-off of t += dt (the run driver's tolerance).
 bool after(double t, double t_keep) { return t > t_keep + 1e-9 * std::max(1.0, std::abs(t_keep)); }
 
-std::string shown_time(double t) {
-  std::ostringstream os;
-  os << t;
-  return os.str();
-}
-
 // room kept on the disk for what a stop writes (set_stop_reserve)
 std::uintmax_t g_stop_reserve = 64 * 1024;
 
@@ -46,6 +42,12 @@ void check_room(const std::string& dir, std::uintmax_t need, std::uintmax_t rese
                              what + " needs about " + kib(need) + " and " + kib(reserve) +
                              " are kept for the run's summary: free space there, or write "
                              "fewer or smaller outputs (Output->Interval, Output->Fields)");
+}
+
+// check_room for `file`, in the directory that holds it
+void check_room_for(const std::string& file, std::uintmax_t need, const std::string& what) {
+  const std::string dir = std::filesystem::path(file).parent_path().string();
+  check_room(dir.empty() ? "." : dir, need, g_stop_reserve, what);
 }
 
 // "cannot write 'file': No space left on device" (errno of the failed call; 0: none known)
@@ -142,9 +144,8 @@ void ProfileWriter::write(double t, const core::Profile& p) {
   const std::string text = rows.str();
   // room for the rows and for what the stop writes (summary.json, run.json): a full disk
   // stops the run while its summary can still be written
-  const std::string dir = std::filesystem::path(file_).parent_path().string();
-  check_room(dir.empty() ? "." : dir, text.size(), g_stop_reserve,
-             "writing the profiles at t = " + shown_time(t) + " s (profiles.csv)");
+  check_room_for(file_, text.size(),
+                 "writing the profiles at t = " + params::str(t) + " s (profiles.csv)");
   out_ << text;
   // A row that did not reach the disk stops the run (a full disk: the rows went on being
   // computed to the end, profiles.csv cut inside a row, and the run then blamed run.json; an
@@ -564,7 +565,7 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
       for (const auto& f : m.cell_fields) need += 8 * f.second.size() + 2048;
     }
     check_room(dir_, need, 2 * xdmf_bytes_ + g_stop_reserve,
-               "writing the field output at t = " + shown_time(t) + " s (fields.h5)");
+               "writing the field output at t = " + params::str(t) + " s (fields.h5)");
     const auto fapl = unlocked_access();
     H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl.id), H5Fclose, "open " + file);
     const std::string sname = step_name(next_index_);
@@ -753,9 +754,7 @@ void write_checkpoint(const std::string& file, const Checkpoint& c) {
     if (H5Fget_file_image(f.id, image.data(), image.size()) != n)
       throw std::runtime_error("HDF5: cannot copy the checkpoint image" + hdf5_error_text());
   }
-  const std::string dir = std::filesystem::path(file).parent_path().string();
-  check_room(dir.empty() ? "." : dir, image.size(), g_stop_reserve,
-             "writing the checkpoint (checkpoint.h5)");
+  check_room_for(file, image.size(), "writing the checkpoint (checkpoint.h5)");
   write_file_atomic(file, image.data(), image.size());
 }
 
