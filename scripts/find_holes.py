@@ -21,6 +21,7 @@ Exit status 1 if any hole was found, 0 if none, 2 if the directory holds no 2D f
 import argparse
 import bisect
 import json
+import os
 import re
 import subprocess
 import sys
@@ -31,6 +32,14 @@ EMPTY, FLUID, SURFACE, ONE_D = 3, 1, 2, -1
 
 def run(*args):
     return subprocess.run(args, capture_output=True, text=True, check=True).stdout
+
+
+def members(f, g):
+    """h5ls of snapshot g of fields.h5: its meshes. fields.h5 links each snapshot to its own
+    file in fields.h5.d (an external link, which h5ls shows rather than enters)."""
+    out = run("h5ls", f"{f}/{g}")
+    link = re.search(r"External Link \{(.+?)//\}", out)
+    return run("h5ls", os.path.join(os.path.dirname(f), link.group(1))) if link else out
 
 
 def dataset(f, path):
@@ -93,7 +102,7 @@ def main():
         print(f"find_holes: no readable {f} (a granflow run directory with field output?)",
               file=sys.stderr)
         return 2
-    if not any(re.search(r"^ndam", run("h5ls", f"{f}/{g}"), re.M) for g in steps):
+    if not any(re.search(r"^ndam", members(f, g), re.M) for g in steps):
         print(f"find_holes: {out} has no 2D (N-DAM) mesh in its fields: a DAM run has no cells "
               "to look for holes in", file=sys.stderr)
         return 2
@@ -108,7 +117,7 @@ def main():
     total, outputs_with_holes = 0, 0
     for g in steps:
         t = float(re.search(r"\(0\): ([-+\deE.]+)", run("h5dump", "-a", f"/{g}/time", f)).group(1))
-        meshes = re.findall(r"^(ndam\S*)", run("h5ls", f"{f}/{g}"), re.M)
+        meshes = re.findall(r"^(ndam\S*)", members(f, g), re.M)
         found = []
         for j, m in enumerate(meshes):
             flag = [[int(v) for v in row] for row in dataset(f, f"/{g}/{m}/flag")]

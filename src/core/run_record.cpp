@@ -256,9 +256,9 @@ double check_restart(const io::Checkpoint& c, const std::string& file,
 
 const std::vector<std::string>& output_file_names() {
   static const std::vector<std::string> names{
-      "run.json",      "summary.json",       "profiles.csv", "profiles.csv.tmp", "fields.h5",
-      "fields.xdmf",   "fields.xdmf.tmp",    "checkpoint.h5", "checkpoint.h5.tmp",
-      "run.json.tmp",  "wall.csv",           "wall.csv.tmp",     "summary.json.tmp"};
+      "run.json",      "summary.json",     "profiles.csv",  "profiles.csv.tmp", "fields.h5",
+      "fields.h5.tmp", "fields.h5.d",      "fields.xdmf",   "fields.xdmf.tmp",  "checkpoint.h5",
+      "checkpoint.h5.tmp", "run.json.tmp", "wall.csv",      "wall.csv.tmp",     "summary.json.tmp"};
   return names;
 }
 
@@ -328,8 +328,12 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
   };
   // Files granflow writes that are there now.
   std::vector<std::string> present;
-  for (const auto& n : output_file_names())
-    if (fs::exists(fs::path(dir) / n, ec)) present.push_back(n);
+  for (const auto& n : output_file_names()) {
+    const fs::path p = fs::path(dir) / n;
+    // an empty fields.h5.d (or a link to an empty directory elsewhere) holds no output
+    if (fs::exists(p, ec) && !(fs::is_directory(p, ec) && fs::is_empty(p, ec)))
+      present.push_back(n);
+  }
   if (present.empty()) return plan;
 
   RunManifest earlier;

@@ -792,7 +792,10 @@ int Simulation::run() {
       io_->lock = std::make_unique<DirectoryLock>(rc_.directory);
       plan = plan_directory(rc_.directory, identity_, canonical_, rc_.overwrite, restarted_,
                             rc_.restart_from, params_);
-      for (const auto& f : plan.remove) std::filesystem::remove(f);
+      for (const auto& f : plan.remove) {
+        if (std::filesystem::path(f).filename() == "fields.h5.d") io::remove_field_snapshots(f);
+        else std::filesystem::remove(f);
+      }
       if (!plan.note.empty()) std::cerr << "granflow: note: " << plan.note << "\n";
     } catch (const params::InputError& e) {
       err = e.what();
@@ -806,7 +809,7 @@ int Simulation::run() {
   files_ = {"run.json", "summary.json", "profiles.csv"};
   io_->wall_on = model_->end_wall();
   if (io_->wall_on) files_.push_back("wall.csv");
-  if (rc_.fields) files_.insert(files_.end(), {"fields.h5", "fields.xdmf"});
+  if (rc_.fields) files_.insert(files_.end(), {"fields.h5", "fields.h5.d", "fields.xdmf"});
   if (rc_.checkpoint) files_.push_back("checkpoint.h5");
   int continued = plan.continued ? 1 : 0;  // rank 0 decided
   MPI_Bcast(&continued, 1, MPI_INT, 0, MPI_COMM_WORLD);

@@ -14,6 +14,8 @@
 #include <functional>
 #include <iomanip>
 #include <iostream>
+#include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -28,10 +30,10 @@ std::uintmax_t g_stop_reserve = 64 * 1024;
 
 std::string kib(std::uintmax_t bytes) { return std::to_string((bytes + 1023) / 1024) + " kB"; }
 
-// Before HDF5 writes: a full disk inside the library left fields.h5's handle open after a
-// failed flush, and the process crashed at exit (SIGSEGV in H5F__close_cb, summary.json of 0
-// bytes; an independent run on a 2 MB file system). So the snapshot's room is checked first;
-// `reserve` keeps room for what the stop itself writes (summary.json, run.json, the index).
+// Before an output is written: a full disk stops the run while what the stop itself writes
+// (summary.json, run.json, the index) still fits in `reserve` (an independent run on a 2 MB file
+// system found a summary.json of 0 bytes). A disk that fills after the check fails the write
+// itself, which keeps the previous file (write_file_atomic).
 void check_room(const std::string& dir, std::uintmax_t need, std::uintmax_t reserve,
                 const std::string& what) {
   struct statvfs st {};
@@ -408,9 +410,9 @@ std::vector<std::string> children(hid_t group) {
 
 // fields.h5 is read by viewers (ParaView, h5py, a monitoring script) while the run goes on.
 // HDF5's file lock then failed the run's next output ("unable to lock file, errno = 11": exit 4
-// after 3 s of a reader holding the file; an independent run). The writer does not lock: a
-// reader that holds the file open while a snapshot is written may see that snapshot
-// incomplete (reopen it); the run goes on.
+// after 3 s of a reader holding the file; an independent run). The run writes no file through
+// HDF5 now (file_image), and reads the earlier snapshots at a restart without a lock, so a
+// reader holding them never stops it.
 H5Handle unlocked_access() {
   H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "create a file access property list");
   if (H5Pset_file_locking(fapl.id, false, true) < 0)
@@ -426,9 +428,66 @@ std::string step_name(std::size_t i) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
-// fields.h5 + fields.xdmf
+// fields.h5 + fields.h5.d/ + fields.xdmf
 // ---------------------------------------------------------------------------------------------
+namespace {
+// Builds an HDF5 file in memory (the core driver without a backing store) with `fill` and
+// returns its bytes: HDF5 never writes to the disk, our write_file_atomic does, checked. A disk
+// that filled inside HDF5's own write of fields.h5 left the library with a file it could not
+// close, and the process crashed in HDF5's shutdown at MPI_Finalize (SIGSEGV in
+// H5F__close_cb, exit 139, after the summary; an independent run, session 40; reproduced with a
+// 512 kB tmpfs filled between two snapshots).
+std::vector<char> file_image(const std::string& what, const std::function<void(hid_t)>& fill) {
+  std::vector<char> image;
+  H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "create a file access property list");
+  if (H5Pset_fapl_core(fapl.id, 1 << 20, 0) < 0)
+    throw std::runtime_error("HDF5: cannot build " + what + " in memory" + hdf5_error_text());
+  H5Handle f(H5Fcreate(what.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id), H5Fclose,
+             "create the image of " + what);
+  fill(f.id);
+  if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
+    throw std::runtime_error("HDF5: cannot flush the image of " + what + hdf5_error_text());
+  const ssize_t n = H5Fget_file_image(f.id, nullptr, 0);
+  if (n <= 0) throw std::runtime_error("HDF5: cannot size the image of " + what + hdf5_error_text());
+  image.resize(static_cast<std::size_t>(n));
+  if (H5Fget_file_image(f.id, image.data(), image.size()) != n)
+    throw std::runtime_error("HDF5: cannot copy the image of " + what + hdf5_error_text());
+  return image;
+}
+
+// The snapshots' directory beside fields.h5, and a snapshot's file name in it.
+const char* const kSnapshotDir = "fields.h5.d";
+std::string snapshot_file(const std::string& name) { return name + ".h5"; }
+bool is_snapshot_file(const std::string& f) {  // step_NNNNNN.h5 (or its .tmp)
+  return f.rfind("step_", 0) == 0 &&
+         (f.size() > 3 && (f.compare(f.size() - 3, 3, ".h5") == 0 ||
+                           (f.size() > 7 && f.compare(f.size() - 7, 7, ".h5.tmp") == 0)));
+}
+
+// fields.h5 itself: one external link per snapshot, step_NNNNNN -> fields.h5.d/step_NNNNNN.h5:/
+// (HDF5 resolves the relative target beside fields.h5 first; h5py, ParaView and FieldReader
+// follow the links as if the groups were in the file).
+std::vector<char> index_image(const std::string& file, const std::vector<std::string>& names) {
+  return file_image(file, [&](hid_t f) {
+    write_string_attr(f, "format",
+                      "granflow field snapshots: one external link per output time to "
+                      "fields.h5.d/step_NNNNNN.h5, whose root holds the attribute time and a "
+                      "group per mesh");
+    for (const auto& s : names) {
+      const std::string target = std::string(kSnapshotDir) + "/" + snapshot_file(s);
+      if (H5Lcreate_external(target.c_str(), "/", f, s.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
+        throw std::runtime_error("HDF5: cannot link " + s + " in " + file + hdf5_error_text());
+    }
+  });
+}
+}  // namespace
+
+// Each snapshot is its own file, fields.h5.d/step_NNNNNN.h5, built in memory and written whole
+// (write_file_atomic); fields.h5 is the index of links to them, rebuilt in memory and replaced
+// after each snapshot. So a full disk fails in our checked writes (the snapshot's file is not
+// made, the index still lists the earlier ones), never inside HDF5.
 void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
+  namespace fs = std::filesystem;
   quiet_hdf5();
   dir_ = dir;
   times_.clear();
@@ -436,89 +495,106 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
   layouts_.clear();
   next_index_ = 0;
   const std::string file = dir + "/fields.h5";
-  if (keep_until >= 0.0 && std::filesystem::exists(file)) {
-    // Restart: drop the snapshots after the checkpoint time (a run stopped between its field
-    // output and its checkpoint wrote them; the restart writes them again), then re-read the
-    // ones kept so that the XDMF index keeps listing them.
-    const auto fapl = unlocked_access();
-    std::vector<std::pair<std::string, double>> kept;
-    std::vector<std::string> later, broken;
-    {
-      H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + file);
-      for (const auto& s : children(f.id)) {
-        try {
-          H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
-          const double t = read_attr(g.id, "time");
-          if (after(t, keep_until)) later.push_back(s);
-          else kept.emplace_back(s, t);
-        } catch (const std::runtime_error&) {
-          broken.push_back(s);
-          H5Eclear2(H5E_DEFAULT);
-        }
+  const std::string sdir = dir + "/" + kSnapshotDir;
+  fs::create_directories(sdir);
+  const auto fapl = unlocked_access();
+  std::vector<std::pair<std::string, double>> kept;  // (name, time), the snapshots kept
+  if (keep_until >= 0.0 && (fs::exists(file) || !fs::is_empty(sdir))) {
+    // Restart: keep the snapshots up to the checkpoint time (a run stopped between its field
+    // output and its checkpoint wrote later ones; the restart writes them again). The files in
+    // fields.h5.d are the snapshots; fields.h5 is rebuilt from them, so an index that was cut or
+    // lost is no loss. A fields.h5 written by a granflow before 2026-12-07 holds its snapshots
+    // as groups: each kept one is copied into its own file first.
+    std::vector<std::string> broken;
+    std::map<std::string, double> found;
+    for (const auto& e : fs::directory_iterator(sdir)) {
+      const std::string n = e.path().filename().string();
+      if (!is_snapshot_file(n) || n.size() < 7 || n.compare(n.size() - 3, 3, ".h5") != 0) continue;
+      const std::string s = n.substr(0, n.size() - 3);
+      try {
+        H5Handle f(H5Fopen(e.path().c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + n);
+        found[s] = read_attr(f.id, "time");
+      } catch (const std::runtime_error&) {
+        broken.push_back(s);
+        H5Eclear2(H5E_DEFAULT);
       }
     }
-    if (broken.empty()) {
-      // The space is not reclaimed (HDF5 keeps it; h5repack would), the links are gone.
-      H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl.id), H5Fclose, "open " + file);
-      for (const auto& s : later)
-        if (H5Ldelete(f.id, s.c_str(), H5P_DEFAULT) < 0)
-          throw std::runtime_error("HDF5: cannot remove snapshot " + s + " from " + file +
-                                   hdf5_error_text());
-      if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
-        throw std::runtime_error("HDF5: cannot write " + file + hdf5_error_text());
-    } else {
-      // A snapshot whose write failed (a disk that filled inside HDF5's write) leaves a group
-      // that cannot be opened, in a file whose links HDF5 can then no longer change either
-      // ("len not positive after adjustment for EOA"): every restart failed on it (an
-      // independent run). The run stopped before that output's checkpoint, so the snapshot is
-      // after the restart's time: the kept snapshots are copied into a new file that replaces
-      // the old one.
-      const std::string tmp = file + ".tmp";
-      {
-        H5Handle src(H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + file);
-        H5Handle dst(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id), H5Fclose,
-                     "create " + tmp);
-        for (const auto& [s, t] : kept)
-          if (H5Ocopy(src.id, s.c_str(), dst.id, s.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
-            throw std::runtime_error("HDF5: cannot copy snapshot " + s + " of " + file +
-                                     hdf5_error_text());
-        if (H5Fflush(dst.id, H5F_SCOPE_GLOBAL) < 0)
-          throw std::runtime_error("HDF5: cannot write " + tmp + hdf5_error_text());
+    if (fs::exists(file)) {
+      try {
+        H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + file);
+        for (const auto& s : children(f.id)) {
+          H5L_info_t info;
+          if (H5Lget_info(f.id, s.c_str(), &info, H5P_DEFAULT) < 0 || info.type != H5L_TYPE_HARD)
+            continue;  // a link to a file of fields.h5.d (listed above when it is there)
+          try {
+            H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
+            const double t = read_attr(g.id, "time");
+            if (after(t, keep_until)) continue;
+            const auto image = file_image(s, [&](hid_t out) {
+              write_attr(out, "time", t);
+              for (const auto& m : children(g.id))
+                if (H5Ocopy(g.id, m.c_str(), out, m.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
+                  throw std::runtime_error("HDF5: cannot copy " + s + "/" + m + " of " + file +
+                                           hdf5_error_text());
+            });
+            const std::string to = sdir + "/" + snapshot_file(s);
+            check_room_for(to, image.size(), "copying snapshot " + s + " of fields.h5");
+            write_file_atomic(to, image.data(), image.size());
+            found[s] = t;
+          } catch (const std::runtime_error&) {
+            broken.push_back(s);
+            H5Eclear2(H5E_DEFAULT);
+          }
+        }
+      } catch (const std::runtime_error&) {
+        H5Eclear2(H5E_DEFAULT);  // an index that cannot be read: rebuilt from fields.h5.d
       }
-      std::filesystem::rename(tmp, file);
+    }
+    for (const auto& [s, t] : found)
+      if (!after(t, keep_until)) kept.emplace_back(s, t);
+    std::sort(kept.begin(), kept.end(),
+              [](const auto& a, const auto& b) { return a.second < b.second; });
+    if (!broken.empty()) {
       std::string names;
       for (const auto& s : broken) names += (names.empty() ? "" : ", ") + s;
       std::cerr << "granflow: note: " << file << " held snapshots that cannot be read (" << names
-                << ": a write that failed); it was rewritten with the " << kept.size()
+                << "); they are left out, and the index lists the " << kept.size()
                 << " snapshots up to the checkpoint\n";
     }
-    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + file);
-    for (const auto& [s, t] : kept) {
-      H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
-      times_.push_back(t);
-      names_.push_back(s);
-      std::vector<FieldWriter::Mesh> meshes;
-      for (const auto& m : children(g.id)) {
-        H5Handle mg(H5Gopen2(g.id, m.c_str(), H5P_DEFAULT), H5Gclose, "open " + m);
-        FieldWriter::Mesh mesh{m, read_dataset(mg.id, "x_nodes"), read_dataset(mg.id, "z_nodes"),
-                               {}};
-        for (const auto& fld : children(mg.id))
-          if (fld != "x_nodes" && fld != "z_nodes")
-            mesh.cell_fields.emplace_back(fld, std::vector<double>{});
-        meshes.push_back(std::move(mesh));
-      }
-      layouts_.push_back(std::move(meshes));
-      // step_NNNNNN: the next snapshot gets the next number after the largest kept one.
-      const auto k = s.rfind('_');
-      if (k != std::string::npos)
-        next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(k + 1)) + 1);
-    }
-    write_xdmf();
-    return;
   }
-  const auto fapl = unlocked_access();
-  H5Handle f(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id), H5Fclose,
-             "create " + file);
+  // Everything in fields.h5.d that is not kept goes: the snapshots after the checkpoint, an
+  // earlier run's, a write cut short (.tmp), one that cannot be read.
+  std::set<std::string> keep_files;
+  for (const auto& [s, t] : kept) keep_files.insert(snapshot_file(s));
+  for (const auto& e : fs::directory_iterator(sdir)) {
+    const std::string n = e.path().filename().string();
+    if (is_snapshot_file(n) && !keep_files.count(n)) fs::remove(e.path());
+  }
+  for (const auto& [s, t] : kept) {
+    H5Handle f(H5Fopen((sdir + "/" + snapshot_file(s)).c_str(), H5F_ACC_RDONLY, fapl.id),
+               H5Fclose, "open " + snapshot_file(s));
+    times_.push_back(t);
+    names_.push_back(s);
+    std::vector<FieldWriter::Mesh> meshes;
+    for (const auto& m : children(f.id)) {
+      H5Handle mg(H5Gopen2(f.id, m.c_str(), H5P_DEFAULT), H5Gclose, "open " + s + "/" + m);
+      FieldWriter::Mesh mesh{m, read_dataset(mg.id, "x_nodes"), read_dataset(mg.id, "z_nodes"),
+                             {}};
+      for (const auto& fld : children(mg.id))
+        if (fld != "x_nodes" && fld != "z_nodes")
+          mesh.cell_fields.emplace_back(fld, std::vector<double>{});
+      meshes.push_back(std::move(mesh));
+    }
+    layouts_.push_back(std::move(meshes));
+    // step_NNNNNN: the next snapshot gets the next number after the largest kept one.
+    const auto k = s.rfind('_');
+    if (k != std::string::npos)
+      next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(k + 1)) + 1);
+  }
+  const auto index = index_image(file, names_);
+  check_room_for(file, index.size(), "writing the field index (fields.h5)");
+  write_file_atomic(file, index.data(), index.size());
+  if (keep_until >= 0.0) write_xdmf();
 }
 
 FieldReader::FieldReader(const std::string& file) : file_(file) {
@@ -555,26 +631,14 @@ std::vector<FieldWriter::Mesh> FieldReader::read(std::size_t i) const {
 
 void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
   quiet_hdf5();
+  const std::string sname = step_name(next_index_);
   const std::string file = dir_ + "/fields.h5";
-  {
-    // the snapshot's values and about 2 kB of HDF5 structure per dataset; the reserve: the
-    // index twice (old and new) and the room kept for the run's summary
-    std::uintmax_t need = 8192;
+  const std::string snap = dir_ + "/" + kSnapshotDir + "/" + snapshot_file(sname);
+  std::vector<FieldWriter::Mesh> layout;
+  const auto image = file_image(snapshot_file(sname), [&](hid_t f) {
+    write_attr(f, "time", t);
     for (const auto& m : fields.meshes()) {
-      need += 8 * (m.x_nodes.size() + m.z_nodes.size()) + 2 * 2048;
-      for (const auto& f : m.cell_fields) need += 8 * f.second.size() + 2048;
-    }
-    check_room(dir_, need, 2 * xdmf_bytes_ + g_stop_reserve,
-               "writing the field output at t = " + params::str(t) + " s (fields.h5)");
-    const auto fapl = unlocked_access();
-    H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDWR, fapl.id), H5Fclose, "open " + file);
-    const std::string sname = step_name(next_index_);
-    H5Handle g(H5Gcreate2(f.id, sname.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-               "create group " + sname);
-    write_attr(g.id, "time", t);
-    std::vector<FieldWriter::Mesh> layout;
-    for (const auto& m : fields.meshes()) {
-      H5Handle mg(H5Gcreate2(g.id, m.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+      H5Handle mg(H5Gcreate2(f, m.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                   H5Gclose, "create group " + m.name);
       write_dataset(mg.id, "x_nodes", m.x_nodes, 1, m.x_nodes.size());
       write_dataset(mg.id, "z_nodes", m.z_nodes, 1, m.z_nodes.size());
@@ -587,13 +651,27 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
       }
       layout.push_back(std::move(lm));
     }
-    if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
-      throw std::runtime_error("HDF5: cannot write " + sname + " to " + file + hdf5_error_text());
-    times_.push_back(t);
-    names_.push_back(sname);
-    layouts_.push_back(std::move(layout));
-    ++next_index_;
+  });
+  auto names = names_;
+  names.push_back(sname);
+  const auto index = index_image(file, names);
+  // the snapshot and the new index; the reserve: the XDMF index twice (old and new) and the
+  // room kept for the run's summary
+  check_room(dir_, image.size() + index.size(), 2 * xdmf_bytes_ + g_stop_reserve,
+             "writing the field output at t = " + params::str(t) + " s (fields.h5.d/" +
+                 snapshot_file(sname) + ")");
+  write_file_atomic(snap, image.data(), image.size());
+  try {
+    write_file_atomic(file, index.data(), index.size());
+  } catch (...) {
+    std::error_code ec;
+    std::filesystem::remove(snap, ec);  // not listed: the directory holds what the index does
+    throw;
   }
+  times_.push_back(t);
+  names_.push_back(sname);
+  layouts_.push_back(std::move(layout));
+  ++next_index_;
   write_xdmf();
 }
 
@@ -653,6 +731,20 @@ void Hdf5FieldOutput::write_xdmf() const {
   const std::string text = x.str();
   write_file_atomic(dir_ + "/fields.xdmf", text);
   xdmf_bytes_ = text.size();
+}
+
+void remove_field_snapshots(const std::string& sdir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(sdir, ec)) {
+    fs::remove(sdir, ec);
+    return;
+  }
+  for (const auto& e : fs::directory_iterator(sdir))
+    if (is_snapshot_file(e.path().filename().string())) fs::remove(e.path());
+  // a link to a directory elsewhere (a larger disk) stays for the next run; an empty
+  // directory of our own goes
+  if (!fs::is_symlink(sdir, ec) && fs::is_empty(sdir, ec)) fs::remove(sdir, ec);
 }
 
 void truncate_fields(const std::string& dir, double t_keep) {
@@ -726,34 +818,19 @@ void write_checkpoint(const std::string& file, const Checkpoint& c) {
   quiet_hdf5();
   // The file is built in memory (HDF5's core driver without a backing store) and written as
   // one image by write_file_atomic: HDF5 never writes to the disk here.
-  std::vector<char> image;
-  {
-    H5Handle fapl(H5Pcreate(H5P_FILE_ACCESS), H5Pclose, "create a file access property list");
-    if (H5Pset_fapl_core(fapl.id, 1 << 20, 0) < 0)
-      throw std::runtime_error("HDF5: cannot build the checkpoint in memory" + hdf5_error_text());
-    H5Handle f(H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl.id), H5Fclose,
-               "create the checkpoint image");
-    write_string_attr(f.id, "format", kFormat);
-    write_string_attr(f.id, "checksum", hex(checksum(c)));
-    {
-      H5Handle s(H5Gcreate2(f.id, "scalars", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-                 "create group scalars");
-      for (const auto& [k, v] : c.scalars()) write_dataset(s.id, enc(k), {v}, 1, 1);
-      H5Handle a(H5Gcreate2(f.id, "arrays", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-                 "create group arrays");
-      for (const auto& [k, v] : c.arrays()) write_dataset(a.id, enc(k), v, 1, v.size());
-      H5Handle x(H5Gcreate2(f.id, "texts", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-                 "create group texts");
-      for (const auto& [k, v] : c.texts()) write_text(x.id, enc(k), v);
-    }
-    if (H5Fflush(f.id, H5F_SCOPE_GLOBAL) < 0)
-      throw std::runtime_error("HDF5: cannot flush the checkpoint image" + hdf5_error_text());
-    const ssize_t n = H5Fget_file_image(f.id, nullptr, 0);
-    if (n <= 0) throw std::runtime_error("HDF5: cannot size the checkpoint image" + hdf5_error_text());
-    image.resize(static_cast<std::size_t>(n));
-    if (H5Fget_file_image(f.id, image.data(), image.size()) != n)
-      throw std::runtime_error("HDF5: cannot copy the checkpoint image" + hdf5_error_text());
-  }
+  const auto image = file_image(file, [&](hid_t f) {
+    write_string_attr(f, "format", kFormat);
+    write_string_attr(f, "checksum", hex(checksum(c)));
+    H5Handle s(H5Gcreate2(f, "scalars", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+               "create group scalars");
+    for (const auto& [k, v] : c.scalars()) write_dataset(s.id, enc(k), {v}, 1, 1);
+    H5Handle a(H5Gcreate2(f, "arrays", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+               "create group arrays");
+    for (const auto& [k, v] : c.arrays()) write_dataset(a.id, enc(k), v, 1, v.size());
+    H5Handle x(H5Gcreate2(f, "texts", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+               "create group texts");
+    for (const auto& [k, v] : c.texts()) write_text(x.id, enc(k), v);
+  });
   check_room_for(file, image.size(), "writing the checkpoint (checkpoint.h5)");
   write_file_atomic(file, image.data(), image.size());
 }

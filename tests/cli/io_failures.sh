@@ -11,7 +11,8 @@
 # 3. SIGHUP (a closed terminal) ended the run by the default action without a summary: it now
 #    stops as an interrupt does, exit 129, status interrupted, with a checkpoint;
 # 4. ... unless it runs under nohup (SIGHUP ignored), which it respects;
-# 5. a snapshot group that cannot be read (a write that failed) made every restart fail.
+# 5. a snapshot that cannot be read made every restart fail;
+# 6. (not a finding) a run directory of an older granflow, with the snapshots inside fields.h5.
 source "$SRC/record_lib.sh"
 rm -rf io_failures && mkdir io_failures && cd io_failures || exit 1
 PY=/usr/bin/python3  # with h5py (install-deps.sh)
@@ -91,18 +92,63 @@ rc=$?
 [ "$rc" = 0 ] || fail "under nohup: exit $rc after SIGHUP; $(cat nohup.log)"
 [ "$(json nohup/summary.json "s['status']")" = completed ] || fail "under nohup: $(json nohup/summary.json "s['status']")"
 
-# 5. a snapshot whose write failed (a disk that filled inside HDF5's write; here a group with no
-#    time, which cannot be read either) no longer fails every restart ("cannot open
-#    step_000015"; an independent run): the cut-back copies the kept snapshots (0 to 0.3 s: 7)
-#    into a new fields.h5 (a file with a broken group cannot have its links changed either)
+# 5. a snapshot that cannot be read made every restart fail ("cannot open step_000015"; an
+#    independent run: a group left by a disk that filled inside HDF5's write). Snapshots are
+#    now files of fields.h5.d written whole, and fields.h5 is their index, rebuilt from them at
+#    a restart: here the last kept snapshot (t = 0.3 s) is damaged and the index deleted. The
+#    restart names the damaged one, leaves it out, and lists the other 6 up to the checkpoint.
 scene "$SRC/io_ndam10.xml" broken1.xml -e 's|value="io_run"|value="broken"|' \
   -e 's|name="End time" type="double" value="0.75"|name="End time" type="double" value="0.3"|'
 expect 0 "completed at t = 0.3 s" broken1.xml
-$PY -c "import h5py; h5py.File('broken/fields.h5', 'a').create_group('step_000099')"
+[ "$(ls broken/fields.h5.d | wc -l)" = 7 ] || fail "broken1: fields.h5.d holds $(ls broken/fields.h5.d)"
+head -c 100 broken/fields.h5.d/step_000006.h5 > cut && mv cut broken/fields.h5.d/step_000006.h5
+rm broken/fields.h5
 scene "$SRC/io_ndam10.xml" broken2.xml -e 's|value="io_run"|value="broken"|' \
   -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="broken/checkpoint.h5"/>&|'
-expect 0 "held snapshots that cannot be read \(step_000099: a write that failed\); it was rewritten with the 7 snapshots up to the checkpoint" broken2.xml
-grep -q step_000099 broken/fields.xdmf && fail "fields.xdmf still lists the broken snapshot"
-$PY -c "import h5py, sys; sys.exit('step_000099' in h5py.File('broken/fields.h5', 'r'))" ||
-  fail "fields.h5 still holds the broken snapshot"
+expect 0 "held snapshots that cannot be read \(step_000006\); they are left out, and the index lists the 6 snapshots up to the checkpoint" broken2.xml
+$PY - broken <<'PYEOF' || fail "broken: the index after the restart (above)"
+import h5py, os, sys
+run = sys.argv[1]
+with h5py.File(run + "/fields.h5", "r") as f:
+    times = [round(float(f[s].attrs["time"]), 9) for s in sorted(f)]
+want = [0.0, 0.05, 0.1, 0.15, 0.2, 0.25] + [round(0.35 + 0.05 * k, 9) for k in range(9)]
+assert times == want, times
+import re
+xt = sorted({round(float(v), 9) for v in re.findall(r'Time Value="([^"]+)"', open(run + "/fields.xdmf").read())})
+assert xt == want, xt
+assert sorted(os.listdir(run + "/fields.h5.d")) == sorted(s + ".h5" for s in h5py.File(run + "/fields.h5", "r")), os.listdir(run + "/fields.h5.d")
+PYEOF
+
+# 6. a run directory of a granflow before fields.h5.d (its snapshots are groups in fields.h5):
+#    a restart copies the ones it keeps into files of fields.h5.d, each value unchanged
+expect 0 "completed at t = 0.3 s" broken1.xml
+$PY - broken <<'PYEOF' || fail "could not make an old-style fields.h5 (above)"
+import h5py, shutil, sys
+run = sys.argv[1]
+with h5py.File(run + "/fields.h5", "a") as f:
+    for s in sorted(f):
+        with h5py.File(f"{run}/fields.h5.d/{s}.h5", "r") as src:
+            del f[s]
+            g = f.create_group(s)
+            g.attrs["time"] = src.attrs["time"]
+            for m in src:
+                src.copy(src[m], g, name=m)
+shutil.copytree(run + "/fields.h5.d", "old_snapshots")
+shutil.rmtree(run + "/fields.h5.d")
+PYEOF
+expect 0 "completed at t = 0.75 s" broken2.xml
+$PY - broken <<'PYEOF' || fail "old-style fields.h5: the snapshots after the restart (above)"
+import h5py, numpy as np, os, sys
+run = sys.argv[1]
+with h5py.File(run + "/fields.h5", "r") as f:
+    names = sorted(f)
+    assert len(names) == 16, names
+    for s in names[:7]:  # the copied ones, value for value
+        with h5py.File(f"old_snapshots/{s}.h5", "r") as old:
+            assert f[s].attrs["time"] == old.attrs["time"]
+            for m in old:
+                for d in old[m]:
+                    assert np.array_equal(f[s][m][d][()], old[m][d][()]), (s, m, d)
+assert sorted(os.listdir(run + "/fields.h5.d")) == [s + ".h5" for s in names]
+PYEOF
 echo "io failures test passed"

@@ -13,15 +13,15 @@ dam() { scene "$SRC/restart_first.xml" "$1" -e "s|value=\"restart_first\"/>|valu
 dam dam.xml mixed
 scene "$SRC/record_ndam.xml" ndam.xml -e 's|value="record_dir"/>|value="mixed"/>|'
 expect 0 "completed" dam.xml
-for f in run.json summary.json profiles.csv fields.h5 fields.xdmf checkpoint.h5; do
+for f in run.json summary.json profiles.csv fields.h5 fields.h5.d fields.xdmf checkpoint.h5; do
   [ -e mixed/$f ] || fail "the DAM run did not write $f"
 done
 grep -q '"identity": "[0-9a-f]\{16\}"' mixed/run.json || fail "run.json has no scene identity"
-expect 2 "Output->Directory' = \"mixed\": it holds the run of a different scene \('mixed'; 'Model' = \"DAM\" there, \"N-DAM\" here\): run.json, summary.json, profiles.csv, fields.h5, fields.xdmf, checkpoint.h5. Allowed: another directory, or the option --overwrite" --check ndam.xml
+expect 2 "Output->Directory' = \"mixed\": it holds the run of a different scene \('mixed'; 'Model' = \"DAM\" there, \"N-DAM\" here\): run.json, summary.json, profiles.csv, fields.h5, fields.h5.d, fields.xdmf, checkpoint.h5. Allowed: another directory, or the option --overwrite" --check ndam.xml
 expect 2 "holds the run of a different scene" ndam.xml
 grep -q '"model": "DAM"' mixed/summary.json || fail "the refused run touched summary.json"
 expect 0 "completed" --overwrite ndam.xml
-for f in fields.h5 fields.xdmf checkpoint.h5; do
+for f in fields.h5 fields.h5.d fields.xdmf checkpoint.h5; do
   [ -e mixed/$f ] && fail "--overwrite left the DAM run's $f"
 done
 grep -q '"model": "N-DAM"' mixed/summary.json || fail "summary.json is not the 2D run's"
@@ -33,7 +33,7 @@ expect 0 "completed" same.xml
 expect 0 "completed" same.xml
 dam same_nofields.xml same -e 's|<Parameter name="Interval" type="double" value="0.05"/>|&<Parameter name="Fields" type="bool" value="false"/><Parameter name="Checkpoint" type="bool" value="false"/>|'
 expect 0 "completed" same_nofields.xml
-for f in fields.h5 fields.xdmf checkpoint.h5; do
+for f in fields.h5 fields.h5.d fields.xdmf checkpoint.h5; do
   [ -e same/$f ] && fail "a rerun of the same scene left the earlier run's $f"
 done
 # A slope change is a different scene, also for the directory.
@@ -77,6 +77,11 @@ times=$(cut -d, -f1 cut/profiles.csv | uniq | tr '\n' ' ')
 cmp cut/profiles.csv straight/profiles.csv || fail "the restarted profiles.csv differs from the straight run's"
 snaps=$(h5ls cut/fields.h5 | grep -c '^step_')
 [ "$snaps" = 5 ] || fail "fields.h5 has $snaps snapshots, expected 5 (t = 0, 0.05, 0.1, 0.15, 0.2)"
+# each snapshot is a file of fields.h5.d; the one at 0.15 s that the restart wrote again is
+# there once (the cut-back removed the first one's file)
+files=$(ls cut/fields.h5.d | tr '\n' ' ')
+[ "$files" = "step_000000.h5 step_000001.h5 step_000002.h5 step_000003.h5 step_000004.h5 " ] ||
+  fail "fields.h5.d after the restart: $files"
 xtimes=$(grep -o 'Time Value="[^"]*"' cut/fields.xdmf | tr '\n' ' ')
 [ "$xtimes" = 'Time Value="0" Time Value="0.05" Time Value="0.1" Time Value="0.15" Time Value="0.2" ' ] ||
   fail "fields.xdmf times after the restart: $xtimes"

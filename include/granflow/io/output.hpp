@@ -3,7 +3,10 @@
 //   profiles.csv   t, x, h, u_mean, eps, model  (depth-averaged in every model)
 //   wall.csv       t, force, normal_force, shear, p_foot, depth, contact: the load on the end
 //                  wall at every accepted step (models that end at a wall, core::WallLoad)
-//   fields.h5      one group per snapshot, cell fields on rectilinear meshes
+//   fields.h5      the snapshots' index: one external link per snapshot, step_NNNNNN ->
+//                  fields.h5.d/step_NNNNNN.h5 (HDF5 readers follow it as a group)
+//   fields.h5.d/   one file per snapshot: the attribute time, a group per mesh with its node
+//                  coordinates and cell fields on the rectilinear mesh
 //   fields.xdmf    temporal collection over fields.h5 that ParaView opens; rewritten after each
 //                  snapshot so that a run that stops early leaves a readable file
 //   checkpoint.h5  the last good state (written atomically: temporary file, then rename), with
@@ -147,6 +150,10 @@ Checkpoint read_checkpoint(const std::string& file);
 /// FNV-1a (64 bit) over the keys and the bytes of the values of all entries: detects truncation
 /// and flipped bytes; not a cryptographic hash.
 std::uint64_t checksum(const Checkpoint& c);
+
+/// Removes the snapshot files (step_NNNNNN.h5) of a run's fields.h5.d, and the directory when
+/// it is then empty (a link to a directory elsewhere is kept).
+void remove_field_snapshots(const std::string& sdir);
 
 /// Cut `dir`/fields.h5 and fields.xdmf (when they exist) back to the snapshots at t <= t_keep.
 void truncate_fields(const std::string& dir, double t_keep);
