@@ -132,7 +132,7 @@ class FieldReader {
 void set_stop_reserve(std::uintmax_t bytes);
 
 /// Writes `file` atomically: the bytes go to file.tmp, which replaces `file` only once every
-/// byte is written and closed; otherwise file.tmp is removed, `file` stays as it was, and
+/// byte is written, synced to the disk (fsync) and closed; otherwise file.tmp is removed, `file` stays as it was, and
 /// std::runtime_error names the file and the system's reason (e.g. "No space left on device").
 void write_file_atomic(const std::string& file, const void* data, std::size_t size);
 inline void write_file_atomic(const std::string& file, const std::string& text) {
