@@ -254,6 +254,30 @@ double check_restart(const io::Checkpoint& c, const std::string& file,
   return t;
 }
 
+std::vector<ParameterChange> restart_changes(const io::Checkpoint& c,
+                                             const std::vector<std::string>& ours) {
+  std::map<std::string, std::string> a, b;
+  if (c.has_text(kSceneKey))
+    for (const auto& l : lines_of(c.text(kSceneKey))) a.insert(split(l));
+  for (const auto& l : ours) b.insert(split(l));
+  std::vector<ParameterChange> d;
+  auto note = [&](const std::string& path) {
+    if (!restart_may_change(path) || path == "Output->Restart from") return;
+    const auto ia = a.find(path), ib = b.find(path);
+    auto shown = [](const std::string& v) {  // a string without its quotes (JSON has its own)
+      return v.size() >= 2 && v.front() == '"' && v.back() == '"' ? v.substr(1, v.size() - 2) : v;
+    };
+    const std::string before = ia == a.end() ? "" : shown(value_of(ia->second));
+    const std::string after = ib == b.end() ? "" : shown(value_of(ib->second));
+    if ((ia == a.end()) != (ib == b.end()) || (ia != a.end() && ia->second != ib->second))
+      d.push_back({path, before, after});
+  };
+  for (const auto& [path, v] : b) note(path);
+  for (const auto& [path, v] : a)
+    if (b.find(path) == b.end()) note(path);
+  return d;
+}
+
 const std::vector<std::string>& output_file_names() {
   static const std::vector<std::string> names{
       "run.json",      "summary.json",     "profiles.csv",  "profiles.csv.tmp", "fields.h5",

@@ -405,6 +405,7 @@ void Simulation::write_checkpoint() {
   }
   c.set_text(kSceneKey, joined(canonical_));
   c.set_text(kIdentityKey, identity_);
+  c.set_text(kRestartsKey, restarts_);
   model_->save(c);
   on_io_rank([&] { io::write_checkpoint(rc_.directory + "/checkpoint.h5", c); });
   model_->restart_point();  // a restart from here and the run itself continue alike
@@ -568,8 +569,13 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   s["start_time"] = t0_;
   s["final_time"] = final_time();
   s["steps"] = final_steps();
-  if (restarted_)
+  if (restarted_) {
     s["restart"] = {{"from", rc_.restart_from}, {"checkpoint_time", restart_time_}};
+    s["restarts"] = nlohmann::json::parse(restarts_);
+    s["restarts_note"] = "every restart of this run in order: the checkpoint's time and file, "
+                         "and the parameters that leg changed ('before' the earlier part's "
+                         "value, '' where not set); 'parameters' above are the last leg's";
+  }
   // the fastest material velocity of the accepted states (the stability suite's bound)
   s["speed_limit"] = {{"value", rc_.effective_speed_limit()},
                       {"energy_bound", rc_.energy_bound},
@@ -778,6 +784,22 @@ int Simulation::run() {
   if (restarted_) {
     ck = read_restart(rc_.restart_from);
     restart_time_ = check_restart(ck, rc_.restart_from, canonical_, rc_.end_time);
+    // What this leg changed (End time, output interval, a solver tolerance ...): summary.json
+    // recorded only the last leg's parameters, so a restarted run did not say that its first
+    // part ran with another tolerance (noticed in session 40).
+    nlohmann::json legs = nlohmann::json::array();
+    if (ck.has_text(kRestartsKey)) {
+      try {
+        legs = nlohmann::json::parse(ck.text(kRestartsKey));
+      } catch (const std::exception&) {
+        legs = nlohmann::json::array();  // the checksum held; an unparsable history is dropped
+      }
+    }
+    nlohmann::json changed = nlohmann::json::array();
+    for (const auto& c : restart_changes(ck, canonical_))
+      changed.push_back({{"parameter", c.parameter}, {"before", c.before}, {"after", c.after}});
+    legs.push_back({{"t", restart_time_}, {"from", rc_.restart_from}, {"changed", changed}});
+    restarts_ = legs.dump();
   }
   // Take the run directory: rank 0 decides (and removes an earlier run's files); every rank
   // learns the verdict.

@@ -98,4 +98,25 @@ for k in granflow_version git_commit build_type compiler trilinos_version hdf5_v
 done
 grep -Eq '"ranks": 1' straight/summary.json || fail "summary.json has no provenance 'ranks'"
 grep -q '"files": \[' straight/summary.json || fail "summary.json has no file manifest"
+
+# 6. Every restart of a run and what it changed (summary.json recorded only the last leg's
+#    parameters, so a run continued with another end time or output interval did not say so):
+#    cut (0 -> 0.1 s from cut_a's checkpoint, End time 0.1 -> 0.2), then 0.2 -> 0.3 s with the
+#    Interval 0.05 -> 0.1; the chain is carried in the checkpoint.
+dam chain.xml cut -e 's|"End time" type="double" value="0.1"|"End time" type="double" value="0.3"|' \
+    -e 's|<Parameter name="Interval" type="double" value="0.05"/>|<Parameter name="Interval" type="double" value="0.1"/><Parameter name="Restart from" type="string" value="cut/checkpoint.h5"/>|'
+expect 0 "completed at t = 0.3 s" chain.xml
+python3 - cut/summary.json <<'PYEOF' || fail "summary.json's restarts (above)"
+import json, sys
+r = json.load(open(sys.argv[1]))["restarts"]
+print(json.dumps(r))
+assert [round(x["t"], 9) for x in r] == [0.1, 0.2], r
+assert all(x["from"] == "cut/checkpoint.h5" for x in r), r
+# the first leg ran as scene cut_a into its own directory
+assert r[0]["changed"] == [{"parameter": "Name", "before": "cut_a", "after": "cut"},
+                           {"parameter": "Output->Directory", "before": "cut_a", "after": "cut"},
+                           {"parameter": "Time->End time", "before": "0.1", "after": "0.2"}], r[0]
+assert r[1]["changed"] == [{"parameter": "Output->Interval", "before": "0.05", "after": "0.1"},
+                           {"parameter": "Time->End time", "before": "0.2", "after": "0.3"}], r[1]
+PYEOF
 echo "run directory checks passed"

@@ -40,9 +40,20 @@ std::string scene_identity(const std::vector<std::string>& canonical);
 std::vector<std::string> scene_differences(const std::vector<std::string>& theirs,
                                            const std::vector<std::string>& ours);
 
+/// A parameter that a restart changed (one of those restart_may_change allows), as readable
+/// values ("" where the parameter is not set on that side, its default applying).
+struct ParameterChange {
+  std::string parameter, before, after;
+};
+/// The changes between checkpoint `c`'s scene and the restart's (`ours`) in the parameters a
+/// restart may change, except 'Output->Restart from' itself.
+std::vector<ParameterChange> restart_changes(const io::Checkpoint& c,
+                                             const std::vector<std::string>& ours);
+
 /// Checkpoint texts written and read by the run driver.
 constexpr const char* kSceneKey = "run/scene";        ///< canonical lines, '\n'-joined
 constexpr const char* kIdentityKey = "run/identity";  ///< scene_identity()
+constexpr const char* kRestartsKey = "run/restarts";  ///< summary.json's restarts, as JSON
 
 /// Checks that checkpoint `c` (read from `file`) continues this scene: same identity (else
 /// an InputError naming 'Output->Restart from' and each differing parameter) and an end time

@@ -155,6 +155,9 @@ class Simulation {
   bool restarted_ = false;
   bool continued_ = false;  ///< a restart that continues its directory's own history
   double restart_time_ = 0.0;
+  /// every restart of the run so far, in order (JSON text: time, checkpoint, changed
+  /// parameters), kept in the checkpoint so that a chain of restarts reports all of them
+  std::string restarts_ = "[]";
   std::vector<std::string> canonical_;  ///< validated parameters (run_record.hpp)
   std::string identity_;
   std::vector<std::string> files_;      ///< files this run (and its earlier parts) wrote
