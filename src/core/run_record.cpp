@@ -350,6 +350,14 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
     std::error_code e;
     return !keep.empty() && fs::exists(keep, e) && fs::equivalent(p, keep, e);
   };
+  // A fields.h5.d that links nowhere, or into another run's snapshots (a copied run
+  // directory): refused before anything is removed (a fresh run removed fields.h5 first and
+  // then failed on the link).
+  try {
+    io::check_field_snapshots(dir);
+  } catch (const std::runtime_error& e) {
+    throw params::InputError(param + e.what());
+  }
   // Files granflow writes that are there now.
   std::vector<std::string> present;
   for (const auto& n : output_file_names()) {

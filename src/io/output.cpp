@@ -4,15 +4,20 @@
 
 #include <hdf5.h>
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
+#include <random>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <iomanip>
 #include <iostream>
@@ -43,9 +48,19 @@ void check_room(const std::string& dir, std::uintmax_t need, std::uintmax_t rese
   const std::uintmax_t room = static_cast<std::uintmax_t>(st.f_bavail) * st.f_frsize;
   if (room < need + reserve)
     throw std::runtime_error("the file system of '" + dir + "' has " + kib(room) + " free; " +
-                             what + " needs about " + kib(need) + " and " + kib(reserve) +
-                             " are kept for the run's summary: free space there, or write "
-                             "fewer or smaller outputs (Output->Interval, Output->Fields)");
+                             what + " needs about " + kib(need) +
+                             (reserve > 0 ? " and " + kib(reserve) +
+                                                " are kept for the run's summary"
+                                          : std::string()) +
+                             ": free space there, or write fewer or smaller outputs "
+                             "(Output->Interval, Output->Fields)");
+}
+
+// whether two existing paths lie on one file system (their room is then shared)
+bool same_file_system(const std::string& a, const std::string& b) {
+  struct stat sa {}, sb {};
+  if (::stat(a.c_str(), &sa) != 0 || ::stat(b.c_str(), &sb) != 0) return true;
+  return sa.st_dev == sb.st_dev;
 }
 
 // check_room for `file`, in the directory that holds it
@@ -474,22 +489,105 @@ std::vector<char> file_image(const std::string& what, const std::function<void(h
 
 // The snapshots' directory beside fields.h5, and a snapshot's file name in it.
 const char* const kSnapshotDir = "fields.h5.d";
+// In a fields.h5.d that is a link: the run directory whose snapshots it holds (claim_snapshots).
+const char* const kOwnerFile = ".granflow_run";
 std::string snapshot_file(const std::string& name) { return name + ".h5"; }
-bool is_snapshot_file(const std::string& f) {  // step_NNNNNN.h5 (or its .tmp)
-  return f.rfind("step_", 0) == 0 &&
-         (f.size() > 3 && (f.compare(f.size() - 3, 3, ".h5") == 0 ||
-                           (f.size() > 7 && f.compare(f.size() - 7, 7, ".h5.tmp") == 0)));
+
+bool ends_with(const std::string& f, const std::string& tail) {
+  return f.size() >= tail.size() && f.compare(f.size() - tail.size(), tail.size(), tail) == 0;
+}
+// step_NNNNNN.h5, six or more digits: a snapshot's file (a copy such as step_000003_copy.h5 is
+// the user's, and is neither read nor removed)
+bool is_snapshot_name(const std::string& f) {
+  if (f.rfind("step_", 0) != 0 || !ends_with(f, ".h5") || f.size() < 14) return false;
+  for (std::size_t i = 5; i + 3 < f.size(); ++i)
+    if (!std::isdigit(static_cast<unsigned char>(f[i]))) return false;
+  return true;
+}
+// what the run itself leaves in fields.h5.d: snapshots, a write cut short (.tmp), a snapshot
+// that could not be read at a restart (.broken), the owner mark
+bool is_run_file(const std::string& f) {
+  if (f == kOwnerFile || is_snapshot_name(f)) return true;
+  for (const char* tail : {".tmp", ".broken"})
+    if (ends_with(f, tail) && is_snapshot_name(f.substr(0, f.size() - std::strlen(tail))))
+      return true;
+  return false;
+}
+// A run's field output carries an id (16 hex digits, drawn when the output starts afresh, kept
+// across restarts) in fields.h5 and in every snapshot's file: HDF5 looks for an external link's
+// file beside fields.h5 and then in the current directory, so a fields.h5 copied without its
+// fields.h5.d, read from inside another run's directory, served that run's snapshots (an
+// independent run: granflow-study mixed two runs without a word; ParaView crashed on the
+// shapes). FieldReader refuses a snapshot whose id is not the index's.
+std::string new_run_id() {
+  std::random_device rd;
+  const std::uint64_t v = (static_cast<std::uint64_t>(rd()) << 32) ^ rd() ^
+                          static_cast<std::uint64_t>(
+                              std::chrono::steady_clock::now().time_since_epoch().count());
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+std::string run_id_of(hid_t loc) {  // "" where there is none (an older file)
+  if (H5Aexists(loc, "run") <= 0) {
+    H5Eclear2(H5E_DEFAULT);
+    return "";
+  }
+  return read_string_attr(loc, "run");
+}
+
+bool has_snapshots(const std::string& sdir) {
+  std::error_code ec;
+  if (!std::filesystem::is_directory(sdir, ec)) return false;
+  for (const auto& e : std::filesystem::directory_iterator(sdir, ec)) {
+    const std::string n = e.path().filename().string();
+    if (n != kOwnerFile && is_run_file(n)) return true;
+  }
+  return false;
+}
+
+// A fields.h5.d that is a link (to a directory on a larger disk) is shared by every copy of the
+// run directory (cp -r copies the link), and a fresh run or a restart in one copy removed the
+// other's snapshots (a review of the change). The run directory marks the linked directory as
+// its own; a directory marked by another run that still holds snapshots is refused.
+void claim_snapshots(const std::string& dir, const std::string& sdir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::is_symlink(sdir, ec) && !fs::exists(sdir, ec))
+    throw std::runtime_error("'" + sdir + "' is a link to '" + fs::read_symlink(sdir, ec).string() +
+                             "', which does not exist; allowed: a link to an existing "
+                             "directory, or no fields.h5.d (the run creates it)");
+  fs::create_directories(sdir);
+  if (!fs::is_symlink(sdir, ec)) return;  // a directory of the run directory's own
+  const std::string me = fs::canonical(dir).string();
+  const std::string mark = sdir + "/" + kOwnerFile;
+  std::string owner;
+  {
+    std::ifstream in(mark);
+    std::getline(in, owner);
+  }
+  if (owner == me) return;
+  if (!owner.empty() && has_snapshots(sdir))
+    throw std::runtime_error(
+        "'" + sdir + "' links to '" + fs::canonical(sdir).string() +
+        "', which holds the field snapshots of the run in '" + owner +
+        "': two runs cannot share it (a copy of a run directory copies the link). Allowed: a "
+        "link to a directory of this run's own; if that run was moved here, remove '" + mark +
+        "'");
+  write_file_atomic(mark, me + "\n");
 }
 
 // fields.h5 itself: one external link per snapshot, step_NNNNNN -> fields.h5.d/step_NNNNNN.h5:/
 // (HDF5 resolves the relative target beside fields.h5 first; h5py, ParaView and FieldReader
 // follow the links as if the groups were in the file).
-std::vector<char> index_image(const std::string& file, const std::vector<std::string>& names) {
+std::vector<char> index_image(const std::string& file, const std::vector<std::string>& names,
+                              const std::string& run_id) {
   return file_image(file, [&](hid_t f) {
     write_string_attr(f, "format",
                       "granflow field snapshots: one external link per output time to "
                       "fields.h5.d/step_NNNNNN.h5, whose root holds the attribute time and a "
                       "group per mesh");
+    write_string_attr(f, "run", run_id);
     for (const auto& s : names) {
       const std::string target = std::string(kSnapshotDir) + "/" + snapshot_file(s);
       if (H5Lcreate_external(target.c_str(), "/", f, s.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
@@ -513,80 +611,135 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
   next_index_ = 0;
   const std::string file = dir + "/fields.h5";
   const std::string sdir = dir + "/" + kSnapshotDir;
-  fs::create_directories(sdir);
+  claim_snapshots(dir, sdir);
   const auto fapl = unlocked_access();
   std::vector<std::pair<std::string, double>> kept;  // (name, time), the snapshots kept
-  if (keep_until >= 0.0 && (fs::exists(file) || !fs::is_empty(sdir))) {
+  std::vector<std::string> unreadable;               // snapshot files set aside (.broken)
+  std::vector<std::string> lost_groups;              // an older fields.h5's unreadable groups
+  run_id_.clear();
+  if (keep_until >= 0.0 && (fs::exists(file) || has_snapshots(sdir))) {
     // Restart: keep the snapshots up to the checkpoint time (a run stopped between its field
     // output and its checkpoint wrote later ones; the restart writes them again). The files in
     // fields.h5.d are the snapshots; fields.h5 is rebuilt from them, so an index that was cut or
     // lost is no loss. A fields.h5 written by a granflow before 2026-12-07 holds its snapshots
     // as groups: each kept one is copied into its own file first.
-    std::vector<std::string> broken;
     std::map<std::string, double> found;
+    std::map<std::string, std::string> file_run;  // each file's run id
     for (const auto& e : fs::directory_iterator(sdir)) {
       const std::string n = e.path().filename().string();
-      if (!is_snapshot_file(n) || n.size() < 7 || n.compare(n.size() - 3, 3, ".h5") != 0) continue;
+      if (!is_snapshot_name(n)) continue;
       const std::string s = n.substr(0, n.size() - 3);
       try {
         H5Handle f(H5Fopen(e.path().c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + n);
         found[s] = read_attr(f.id, "time");
+        file_run[s] = run_id_of(f.id);
       } catch (const std::runtime_error&) {
-        broken.push_back(s);
+        unreadable.push_back(s);
         H5Eclear2(H5E_DEFAULT);
       }
     }
     if (fs::exists(file)) {
-      try {
-        H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + file);
+      const hid_t opened = H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id);
+      if (opened < 0) {
+        const std::string why = hdf5_error_text();
+        // The index of snapshot files is rebuilt from them; an older fields.h5 with its
+        // snapshots inside and nothing in fields.h5.d would be replaced by an empty index.
+        if (found.empty() && unreadable.empty())
+          throw std::runtime_error(
+              "cannot read '" + file + "'" + why + " and '" + sdir +
+              "' holds no snapshot files, so the snapshots before the checkpoint cannot be "
+              "kept; allowed: a readable fields.h5, or move it away to restart with a new "
+              "field output");
+      } else {
+        H5Handle f(opened, H5Fclose, "open " + file);
+        run_id_ = run_id_of(f.id);
+        bool listed_any = false;
+        std::set<std::string> listed;
         for (const auto& s : children(f.id)) {
           H5L_info_t info;
-          if (H5Lget_info(f.id, s.c_str(), &info, H5P_DEFAULT) < 0 || info.type != H5L_TYPE_HARD)
+          if (H5Lget_info(f.id, s.c_str(), &info, H5P_DEFAULT) < 0) continue;
+          if (info.type == H5L_TYPE_EXTERNAL) {
+            listed.insert(s);
+            listed_any = true;
+          }
+          if (info.type != H5L_TYPE_HARD)
             continue;  // a link to a file of fields.h5.d (listed above when it is there)
-          try {
+          double t = 0.0;
+          std::vector<char> image;
+          try {  // reading the group: a failure leaves it out (it cannot be read)
             H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
-            const double t = read_attr(g.id, "time");
+            t = read_attr(g.id, "time");
             if (after(t, keep_until)) continue;
-            const auto image = file_image(s, [&](hid_t out) {
+            if (run_id_.empty()) run_id_ = new_run_id();
+            image = file_image(s, [&](hid_t out) {
               write_attr(out, "time", t);
+              write_string_attr(out, "run", run_id_);
               for (const auto& m : children(g.id))
                 if (H5Ocopy(g.id, m.c_str(), out, m.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
                   throw std::runtime_error("HDF5: cannot copy " + s + "/" + m + " of " + file +
                                            hdf5_error_text());
             });
-            const std::string to = sdir + "/" + snapshot_file(s);
-            check_room_for(to, image.size(), "copying snapshot " + s + " of fields.h5");
-            write_file_atomic(to, image.data(), image.size());
-            found[s] = t;
           } catch (const std::runtime_error&) {
-            broken.push_back(s);
+            lost_groups.push_back(s);
             H5Eclear2(H5E_DEFAULT);
+            continue;
           }
+          // writing it: a failure (a full disk) stops the restart with fields.h5 untouched
+          const std::string to = sdir + "/" + snapshot_file(s);
+          check_room_for(to, image.size(), "copying snapshot " + s + " of fields.h5");
+          write_file_atomic(to, image.data(), image.size());
+          found[s] = t;
+          file_run[s] = run_id_;
+          listed.insert(s);
         }
-      } catch (const std::runtime_error&) {
-        H5Eclear2(H5E_DEFAULT);  // an index that cannot be read: rebuilt from fields.h5.d
+        // A readable index names the run's snapshots: a file it does not list is a write the
+        // run did not finish (after the checkpoint) or a copy placed there (an independent
+        // run copied step_000001.h5 to step_000007.h5: it was taken as a snapshot).
+        if (listed_any || !listed.empty())
+          for (auto it = found.begin(); it != found.end();)
+            it = listed.count(it->first) ? std::next(it) : found.erase(it);
       }
     }
+    if (run_id_.empty())  // no index (lost, or older): the kept files' id, else a new one
+      for (const auto& [s, t] : found)
+        if (!after(t, keep_until) && !file_run[s].empty()) {
+          run_id_ = file_run[s];
+          break;
+        }
     for (const auto& [s, t] : found)
       if (!after(t, keep_until)) kept.emplace_back(s, t);
     std::sort(kept.begin(), kept.end(),
               [](const auto& a, const auto& b) { return a.second < b.second; });
-    if (!broken.empty()) {
-      std::string names;
-      for (const auto& s : broken) names += (names.empty() ? "" : ", ") + s;
-      std::cerr << "granflow: note: " << file << " held snapshots that cannot be read (" << names
-                << "); they are left out, and the index lists the " << kept.size()
-                << " snapshots up to the checkpoint\n";
-    }
   }
-  // Everything in fields.h5.d that is not kept goes: the snapshots after the checkpoint, an
-  // earlier run's, a write cut short (.tmp), one that cannot be read.
-  std::set<std::string> keep_files;
+  if (run_id_.empty()) run_id_ = new_run_id();
+  for (const auto& [s, t] : kept) names_.push_back(s);
+  // The new index first, then the files it does not list go: a failed write leaves the old
+  // index and every file it lists.
+  const auto index = index_image(file, names_, run_id_);
+  check_room_for(file, index.size(), "writing the field index (fields.h5)");
+  write_file_atomic(file, index.data(), index.size());
+  for (const auto& s : unreadable) {  // set aside, not deleted (a permission, a passing error)
+    std::error_code ec;
+    fs::rename(sdir + "/" + snapshot_file(s), sdir + "/" + snapshot_file(s) + ".broken", ec);
+  }
+  std::set<std::string> keep_files{kOwnerFile};
   for (const auto& [s, t] : kept) keep_files.insert(snapshot_file(s));
   for (const auto& e : fs::directory_iterator(sdir)) {
     const std::string n = e.path().filename().string();
-    if (is_snapshot_file(n) && !keep_files.count(n)) fs::remove(e.path());
+    if (is_run_file(n) && !keep_files.count(n) && !(keep_until >= 0.0 && ends_with(n, ".broken")))
+      fs::remove(e.path());
   }
+  if (!unreadable.empty() || !lost_groups.empty()) {
+    std::string names;
+    for (const auto& s : unreadable) names += (names.empty() ? "" : ", ") + s;
+    for (const auto& s : lost_groups) names += (names.empty() ? "" : ", ") + s + " (in fields.h5)";
+    std::cerr << "granflow: note: the field output in " << dir
+              << " held snapshots that cannot be read (" << names
+              << "); they are left out (a file of fields.h5.d kept as <name>.h5.broken), and "
+                 "fields.h5 lists the "
+              << kept.size() << " snapshots up to the checkpoint\n";
+  }
+  names_.clear();
   for (const auto& [s, t] : kept) {
     H5Handle f(H5Fopen((sdir + "/" + snapshot_file(s)).c_str(), H5F_ACC_RDONLY, fapl.id),
                H5Fclose, "open " + snapshot_file(s));
@@ -604,22 +757,27 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
     }
     layouts_.push_back(std::move(meshes));
     // step_NNNNNN: the next snapshot gets the next number after the largest kept one.
-    const auto k = s.rfind('_');
-    if (k != std::string::npos)
-      next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(k + 1)) + 1);
+    next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(5)) + 1);
   }
-  const auto index = index_image(file, names_);
-  check_room_for(file, index.size(), "writing the field index (fields.h5)");
-  write_file_atomic(file, index.data(), index.size());
+  // an unreadable file keeps its number (its .broken copy is not overwritten)
+  for (const auto& s : unreadable)
+    next_index_ = std::max<std::size_t>(next_index_, std::stoul(s.substr(5)) + 1);
   if (keep_until >= 0.0) write_xdmf();
 }
 
 FieldReader::FieldReader(const std::string& file) : file_(file) {
   quiet_hdf5();
   H5Handle f(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + file);
+  const std::string run = run_id_of(f.id);
   std::vector<std::pair<double, std::string>> snaps;
   for (const auto& s : children(f.id)) {
-    H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s + " in " + file);
+    H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose,
+               "open " + s + " in " + file + " (its file in fields.h5.d beside it)");
+    if (run_id_of(g.id) != run)
+      throw std::runtime_error(
+          "snapshot " + s + " read through " + file + " is another run's: its file " +
+          snapshot_file(s) + " is not in the fields.h5.d beside " + file +
+          ", and HDF5 then looks in the current directory; keep fields.h5.d with fields.h5");
     snaps.emplace_back(read_attr(g.id, "time"), s);
   }
   std::sort(snaps.begin(), snaps.end());
@@ -654,6 +812,7 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
   std::vector<FieldWriter::Mesh> layout;
   const auto image = file_image(snapshot_file(sname), [&](hid_t f) {
     write_attr(f, "time", t);
+    write_string_attr(f, "run", run_id_);
     for (const auto& m : fields.meshes()) {
       H5Handle mg(H5Gcreate2(f, m.name.c_str(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                   H5Gclose, "create group " + m.name);
@@ -671,12 +830,20 @@ void Hdf5FieldOutput::write(double t, const FieldWriter& fields) {
   });
   auto names = names_;
   names.push_back(sname);
-  const auto index = index_image(file, names);
+  const auto index = index_image(file, names, run_id_);
   // the snapshot and the new index; the reserve: the XDMF index twice (old and new) and the
-  // room kept for the run's summary
-  check_room(dir_, image.size() + index.size(), 2 * xdmf_bytes_ + g_stop_reserve,
-             "writing the field output at t = " + params::str(t) + " s (fields.h5.d/" +
-                 snapshot_file(sname) + ")");
+  // room kept for the run's summary. A fields.h5.d linked to another disk is checked there.
+  const std::string what =
+      "writing the field output at t = " + params::str(t) + " s (fields.h5.d/" +
+      snapshot_file(sname) + ")";
+  const std::string sdir = dir_ + "/" + kSnapshotDir;
+  if (same_file_system(dir_, sdir)) {
+    check_room(dir_, image.size() + index.size(), 2 * xdmf_bytes_ + g_stop_reserve, what);
+  } else {
+    check_room(sdir, image.size(), 0, what);
+    check_room(dir_, index.size(), 2 * xdmf_bytes_ + g_stop_reserve,
+               "writing the field index (fields.h5) at t = " + params::str(t) + " s");
+  }
   write_file_atomic(snap, image.data(), image.size());
   try {
     write_file_atomic(file, index.data(), index.size());
@@ -716,7 +883,10 @@ void Hdf5FieldOutput::write_xdmf() const {
       for (const auto& m : layouts_[s]) {
         if (m.name != mesh) continue;
         const std::size_t nx = m.x_nodes.size(), nz = m.z_nodes.size();
-        const std::string base = "fields.h5:/" + sname + "/" + m.name + "/";
+        // the snapshot's own file, relative to fields.xdmf (ParaView reads it from there, not
+        // through fields.h5's links, which HDF5 may also resolve in the current directory)
+        const std::string base =
+            std::string(kSnapshotDir) + "/" + snapshot_file(sname) + ":/" + m.name + "/";
         // The cell fields' declared shape is the dataset's, nz - 1 x nx - 1 (also 1 x nx - 1 for
         // the 1D models' one-row strip: ParaView's XDMF reader needs the cells' shape there).
         std::ostringstream cells;
@@ -750,6 +920,29 @@ void Hdf5FieldOutput::write_xdmf() const {
   xdmf_bytes_ = text.size();
 }
 
+void check_field_snapshots(const std::string& dir) {
+  namespace fs = std::filesystem;
+  const std::string sdir = dir + "/" + kSnapshotDir;
+  std::error_code ec;
+  if (!fs::is_symlink(sdir, ec)) return;
+  if (!fs::exists(sdir, ec))
+    throw std::runtime_error("'" + sdir + "' is a link to '" + fs::read_symlink(sdir, ec).string() +
+                             "', which does not exist; allowed: a link to an existing "
+                             "directory, or no fields.h5.d (the run creates it)");
+  std::string owner;
+  {
+    std::ifstream in(sdir + "/" + kOwnerFile);
+    std::getline(in, owner);
+  }
+  if (!owner.empty() && owner != fs::canonical(dir, ec).string() && has_snapshots(sdir))
+    throw std::runtime_error(
+        "'" + sdir + "' links to '" + fs::canonical(sdir, ec).string() +
+        "', which holds the field snapshots of the run in '" + owner +
+        "': two runs cannot share it (a copy of a run directory copies the link). Allowed: a "
+        "link to a directory of this run's own; if that run was moved here, remove '" + sdir +
+        "/" + kOwnerFile + "'");
+}
+
 void remove_field_snapshots(const std::string& sdir) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -757,8 +950,12 @@ void remove_field_snapshots(const std::string& sdir) {
     fs::remove(sdir, ec);
     return;
   }
-  for (const auto& e : fs::directory_iterator(sdir))
-    if (is_snapshot_file(e.path().filename().string())) fs::remove(e.path());
+  // a linked directory of another run's is refused (claim_snapshots), not emptied
+  claim_snapshots(fs::path(sdir).parent_path().string(), sdir);
+  for (const auto& e : fs::directory_iterator(sdir)) {
+    const std::string n = e.path().filename().string();
+    if (is_run_file(n) && n != kOwnerFile) fs::remove(e.path());
+  }
   // a link to a directory elsewhere (a larger disk) stays for the next run; an empty
   // directory of our own goes
   if (!fs::is_symlink(sdir, ec) && fs::is_empty(sdir, ec)) fs::remove(sdir, ec);

@@ -105,7 +105,8 @@ head -c 100 broken/fields.h5.d/step_000006.h5 > cut && mv cut broken/fields.h5.d
 rm broken/fields.h5
 scene "$SRC/io_ndam10.xml" broken2.xml -e 's|value="io_run"|value="broken"|' \
   -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="broken/checkpoint.h5"/>&|'
-expect 0 "held snapshots that cannot be read \(step_000006\); they are left out, and the index lists the 6 snapshots up to the checkpoint" broken2.xml
+expect 0 "held snapshots that cannot be read \(step_000006\); they are left out \(a file of fields.h5.d kept as <name>.h5.broken\), and fields.h5 lists the 6 snapshots up to the checkpoint" broken2.xml
+[ -e broken/fields.h5.d/step_000006.h5.broken ] || fail "the damaged snapshot was not kept aside: $(ls broken/fields.h5.d)"
 $PY - broken <<'PYEOF' || fail "broken: the index after the restart (above)"
 import h5py, os, sys
 run = sys.argv[1]
@@ -116,8 +117,19 @@ assert times == want, times
 import re
 xt = sorted({round(float(v), 9) for v in re.findall(r'Time Value="([^"]+)"', open(run + "/fields.xdmf").read())})
 assert xt == want, xt
-assert sorted(os.listdir(run + "/fields.h5.d")) == sorted(s + ".h5" for s in h5py.File(run + "/fields.h5", "r")), os.listdir(run + "/fields.h5.d")
+files = sorted(f for f in os.listdir(run + "/fields.h5.d") if not f.endswith(".broken"))
+assert files == sorted(s + ".h5" for s in h5py.File(run + "/fields.h5", "r")), files
 PYEOF
+# A file fields.h5 does not list is not a snapshot of the run (an independent run copied
+# step_000001.h5 to step_000099.h5: it was taken as a second snapshot at t = 0.05 s)
+cp broken/fields.h5.d/step_000001.h5 broken/fields.h5.d/step_000099.h5
+scene "$SRC/io_ndam10.xml" broken3.xml -e 's|value="io_run"|value="broken"|' \
+  -e 's|name="End time" type="double" value="0.75"|name="End time" type="double" value="0.76"|' \
+  -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="broken/checkpoint.h5"/>&|'
+expect 0 "completed at t = 0.76 s" broken3.xml
+[ -e broken/fields.h5.d/step_000099.h5 ] && fail "a file fields.h5 does not list was kept"
+$PY -c "import h5py, sys; f = h5py.File('broken/fields.h5', 'r'); t = sorted(round(float(f[s].attrs['time']), 9) for s in f); sys.exit((len(t) != 16 or len(set(t)) != 16) and f'times {t}: not 15 + the end time')" ||
+  fail "the index after the restart with a stray file"
 
 # 6. a run directory of a granflow before fields.h5.d (its snapshots are groups in fields.h5):
 #    a restart copies the ones it keeps into files of fields.h5.d, each value unchanged
@@ -136,6 +148,11 @@ with h5py.File(run + "/fields.h5", "a") as f:
 shutil.copytree(run + "/fields.h5.d", "old_snapshots")
 shutil.rmtree(run + "/fields.h5.d")
 PYEOF
+cp broken/fields.h5 old_fields.h5
+head -c 2000 old_fields.h5 > broken/fields.h5   # an older fields.h5, cut: nothing to rebuild from
+expect 4 "cannot read '[^']*fields.h5'.*and '[^']*fields.h5.d' holds no snapshot files, so the snapshots before the checkpoint cannot be kept" broken2.xml
+cmp -s broken/fields.h5 <(head -c 2000 old_fields.h5) || fail "the unreadable fields.h5 was replaced"
+cp old_fields.h5 broken/fields.h5
 expect 0 "completed at t = 0.75 s" broken2.xml
 $PY - broken <<'PYEOF' || fail "old-style fields.h5: the snapshots after the restart (above)"
 import h5py, numpy as np, os, sys
@@ -151,4 +168,39 @@ with h5py.File(run + "/fields.h5", "r") as f:
                     assert np.array_equal(f[s][m][d][()], old[m][d][()]), (s, m, d)
 assert sorted(os.listdir(run + "/fields.h5.d")) == [s + ".h5" for s in names]
 PYEOF
+
+# 7. A run directory copied with cp -r copies a linked fields.h5.d as the link: both copies
+#    share one directory, and a run in the copy removed the original's snapshots (a review).
+#    The linked directory is marked with its run; another run is refused while it holds them.
+mkdir -p shared_target linked
+ln -s "$(pwd)/shared_target" linked/fields.h5.d
+scene "$SRC/io_ndam10.xml" linked.xml -e 's|value="io_run"|value="linked"|' \
+  -e 's|name="End time" type="double" value="0.75"|name="End time" type="double" value="0.2"|'
+expect 0 "completed at t = 0.2 s" linked.xml
+cp -r linked linked_copy
+[ -L linked_copy/fields.h5.d ] || fail "cp -r did not copy the link (the case this tests)"
+scene "$SRC/io_ndam10.xml" copy.xml -e 's|value="io_run"|value="linked_copy"|' \
+  -e 's|name="End time" type="double" value="0.75"|name="End time" type="double" value="0.2"|'
+expect 2 "linked_copy/fields.h5.d' links to '[^']*shared_target', which holds the field snapshots of the run in '[^']*/linked': two runs cannot share it" copy.xml
+[ "$(ls shared_target | grep -c '^step_')" = 5 ] || fail "the copy's run touched the original's snapshots: $(ls shared_target)"
+# A link that points nowhere (a disk not mounted) is named, in --check too, before anything of
+# the directory is removed (a fresh run removed fields.h5 and then failed on the link).
+mv shared_target shared_away
+expect 2 "'linked/fields.h5.d' is a link to '[^']*shared_target', which does not exist" --check linked.xml
+expect 2 "'linked/fields.h5.d' is a link to '[^']*shared_target', which does not exist" linked.xml
+[ -e linked/fields.h5 ] || fail "the refused run removed fields.h5"
+mv shared_away shared_target
+
+# 8. fields.h5 copied without its fields.h5.d, read from inside another run's directory: HDF5
+#    looks for each snapshot's file beside fields.h5 and then in the current directory, and
+#    granflow-study read the other run's snapshots without a word (an independent run). Each
+#    snapshot's file carries its run's id, which the reader checks.
+mkdir -p only && cp linked/fields.h5 linked/fields.xdmf linked/profiles.csv linked/summary.json linked/run.json only/
+study=$(dirname "$EXE")/granflow-study
+out=$(cd broken && "$study" budget ../only --from 0.05 --to 0.2 2>&1); rc=$?
+echo "granflow-study budget ../only (from broken/) -> $rc"; echo "$out" | tail -2 | sed 's/^/  | /'
+[ "$rc" != 0 ] || fail "granflow-study read another run's snapshots through a copied fields.h5"
+echo "$out" | grep -q "snapshot step_000000 read through ../only/fields.h5 is another run's" ||
+  fail "granflow-study did not say why"
+out=$("$study" budget linked --from 0.05 --to 0.2 2>&1) || fail "granflow-study on the run itself: $out"
 echo "io failures test passed"

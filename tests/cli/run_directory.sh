@@ -89,7 +89,7 @@ xtimes=$(grep -o 'Time Value="[^"]*"' cut/fields.xdmf | tr '\n' ' ')
 # 4. The DAM's XDMF declares the shape its cell datasets have: one row of 100 cells, 1 x 100
 #    (h5ls: {1, 100}), the shape ParaView's XDMF reader maps onto the strip's cells.
 h5ls cut/fields.h5/step_000000/dam | grep -q '^h  *Dataset {1, 100}' || fail "dam/h is not a 1 x 100 dataset"
-grep -q 'Dimensions="1 100" NumberType="Float" Precision="8" Format="HDF">fields.h5:/step_000000/dam/h<' cut/fields.xdmf ||
+grep -q 'Dimensions="1 100" NumberType="Float" Precision="8" Format="HDF">fields.h5.d/step_000000.h5:/dam/h<' cut/fields.xdmf ||
   fail "fields.xdmf does not declare dam/h as 1 x 100"
 
 # 5. Provenance in summary.json.

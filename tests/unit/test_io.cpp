@@ -15,10 +15,19 @@
 #include <fstream>
 #include <sstream>
 
+#include <unistd.h>
+
 using namespace granflow;
 namespace fs = std::filesystem;
 
 namespace {
+
+// a scratch directory under the system's temporary directory (the tests wrote into the
+// current directory, and a run from the repository's root left them there)
+std::string scratch(const std::string& name) {
+  return (fs::temp_directory_path() / ("granflow_" + name + "_" + std::to_string(::getpid())))
+      .string();
+}
 
 std::string slurp(const std::string& f) {
   std::ifstream in(f, std::ios::binary);
@@ -39,7 +48,7 @@ bool full_disk_for(const std::string& dir, const std::string& name) {
 }  // namespace
 
 TEST(OutputFiles, AFailedWriteKeepsThePreviousFileAndSaysWhy) {
-  const std::string dir = "test_io_atomic";
+  const std::string dir = scratch("test_io_atomic");
   if (!full_disk_for(dir, "summary.json")) GTEST_SKIP() << "no /dev/full";
   const std::string file = dir + "/summary.json";
   {
@@ -64,11 +73,12 @@ TEST(OutputFiles, AFailedWriteKeepsThePreviousFileAndSaysWhy) {
   fs::remove(file + ".tmp");
   io::write_file_atomic(file, "{}\n");
   EXPECT_EQ(slurp(file), "{}\n");
+  fs::remove_all(dir);
 }
 
 TEST(OutputFiles, AWriteIntoAMissingDirectoryNamesTheFile) {
-  const std::string file = "test_io_missing_dir/sub/run.json";
-  fs::remove_all("test_io_missing_dir");
+  const std::string file = scratch("test_io_missing_dir") + "/sub/run.json";
+  fs::remove_all(scratch("test_io_missing_dir"));
   try {
     io::write_file_atomic(file, "{}");
     ADD_FAILURE() << "a write into a missing directory succeeded";
@@ -83,7 +93,7 @@ TEST(OutputFiles, AWriteIntoAMissingDirectoryNamesTheFile) {
 // the last checkpoint stays readable (a restart from it is what the stop promises), and HDF5
 // holds no file open afterwards (the process crashed at exit before).
 TEST(OutputFiles, ACheckpointThatCannotBeWrittenKeepsTheLastOne) {
-  const std::string dir = "test_io_checkpoint";
+  const std::string dir = scratch("test_io_checkpoint");
   if (!full_disk_for(dir, "checkpoint.h5")) GTEST_SKIP() << "no /dev/full";
   const std::string file = dir + "/checkpoint.h5";
   fs::remove(file + ".tmp");
@@ -109,6 +119,7 @@ TEST(OutputFiles, ACheckpointThatCannotBeWrittenKeepsTheLastOne) {
   // the next checkpoint, with room again, replaces it
   io::write_checkpoint(file, second);
   EXPECT_EQ(io::read_checkpoint(file).scalar("run/time"), 0.75);
+  fs::remove_all(dir);
 }
 
 // A field snapshot that cannot be written (the disk filled between the room check and the
@@ -118,7 +129,7 @@ TEST(OutputFiles, ACheckpointThatCannotBeWrittenKeepsTheLastOne) {
 // failed snapshot leaves nothing behind, the index and fields.xdmf list the earlier ones, the
 // next snapshot is written when there is room again, and the test binary ends normally.
 TEST(OutputFiles, AFieldSnapshotThatCannotBeWrittenKeepsTheEarlierOnes) {
-  const std::string dir = "test_io_fields";
+  const std::string dir = scratch("test_io_fields");
   if (!fs::exists("/dev/full")) GTEST_SKIP() << "no /dev/full";
   fs::remove_all(dir);
   fs::create_directories(dir);
@@ -155,11 +166,19 @@ TEST(OutputFiles, AFieldSnapshotThatCannotBeWrittenKeepsTheEarlierOnes) {
     EXPECT_EQ(meshes[0].cell_fields.at(0).second, (std::vector<double>{0.1, 1.1, 2.1, 3.1}));
   }
   const std::string xdmf = slurp(dir + "/fields.xdmf");
-  EXPECT_NE(xdmf.find("fields.h5:/step_000001/ndam/h"), std::string::npos);
+  EXPECT_NE(xdmf.find("fields.h5.d/step_000001.h5:/ndam/h"), std::string::npos);
   EXPECT_EQ(xdmf.find("step_000002"), std::string::npos);
+  // the snapshot's file written, the index's write failing: the file goes again (fields.h5.d
+  // holds what the index lists), the old index stays
+  fs::create_symlink("/dev/full", dir + "/fields.h5.tmp");
+  EXPECT_THROW(out.write(0.2, snapshot(0.2)), std::runtime_error);
+  EXPECT_FALSE(fs::exists(dir + "/fields.h5.d/step_000002.h5"));
+  EXPECT_FALSE(fs::exists(fs::symlink_status(dir + "/fields.h5.tmp")));
+  EXPECT_EQ(io::FieldReader(dir + "/fields.h5").size(), 2u);
   // room again: the output goes on
   out.write(0.2, snapshot(0.2));
   const io::FieldReader r(dir + "/fields.h5");
   ASSERT_EQ(r.size(), 3u);
   EXPECT_EQ(r.read(2)[0].cell_fields.at(0).second, (std::vector<double>{0.2, 1.2, 2.2, 3.2}));
+  fs::remove_all(dir);
 }

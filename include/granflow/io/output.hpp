@@ -108,6 +108,7 @@ class Hdf5FieldOutput {
   std::vector<std::vector<FieldWriter::Mesh>> layouts_;  // meshes of each snapshot
   std::size_t next_index_ = 0;                           // step_NNNNNN of the next snapshot
   mutable std::size_t xdmf_bytes_ = 0;                   // size of the index last written
+  std::string run_id_;  // in fields.h5 and every snapshot's file (FieldReader checks it)
 };
 
 /// Reads the snapshots of a run's fields.h5 (granflow-study budget): their times, and one
@@ -150,6 +151,10 @@ Checkpoint read_checkpoint(const std::string& file);
 /// FNV-1a (64 bit) over the keys and the bytes of the values of all entries: detects truncation
 /// and flipped bytes; not a cryptographic hash.
 std::uint64_t checksum(const Checkpoint& c);
+
+/// Refuses (std::runtime_error naming it) a run directory `dir` whose fields.h5.d is a link to
+/// a directory that does not exist or that holds another run's snapshots.
+void check_field_snapshots(const std::string& dir);
 
 /// Removes the snapshot files (step_NNNNNN.h5) of a run's fields.h5.d, and the directory when
 /// it is then empty (a link to a directory elsewhere is kept).
