@@ -716,6 +716,8 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   const std::string text = s.dump(2, ' ', false, nlohmann::json::error_handler_t::replace);
   // Written whole and then renamed (io::write_file_atomic): on a full disk it was cut to 0
   // bytes (an independent run); now the previous summary stays and the error is reported.
+  // The room held for it since the start is given back first.
+  io::release_stop_reserve();
   io::write_file_atomic(rc_.directory + "/summary.json", text + "\n");
   write_manifest(rc_.directory, RunManifest{scene_name_, model_->model_name(), identity_,
                                             canonical_, files_, status});
@@ -843,6 +845,7 @@ int Simulation::run() {
     write_manifest(rc_.directory, RunManifest{scene_name_, model_->model_name(), identity_,
                                               canonical_, files_, "running"});
   });
+  on_io_rank([&] { io::hold_stop_reserve(rc_.directory); });
   // From here on the directory is this run's: whatever stops it leaves a summary.json.
   auto summary_then_rethrow = [&](const std::string& status, const char* what, int code) {
     try {

@@ -34,6 +34,22 @@ bool after(double t, double t_keep) { return t > t_keep + 1e-9 * std::max(1.0, s
 
 // room kept on the disk for what a stop writes (set_stop_reserve)
 std::uintmax_t g_stop_reserve = 64 * 1024;
+// the file that holds that room (hold_stop_reserve) and the bytes it holds
+std::string g_reserve_file;
+std::uintmax_t g_reserve_held = 0;
+
+// Grows the reserve file to g_stop_reserve; where the disk has no room for more, what it held
+// stays held.
+void grow_reserve() {
+  if (g_reserve_file.empty() || g_reserve_held >= g_stop_reserve) return;
+  const int fd = ::open(g_reserve_file.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return;
+  if (::posix_fallocate(fd, 0, static_cast<off_t>(g_stop_reserve)) == 0)
+    g_reserve_held = g_stop_reserve;
+  else if (::ftruncate(fd, static_cast<off_t>(g_reserve_held)) != 0)
+    g_reserve_held = 0;  // not known: the room checks keep the whole reserve free
+  ::close(fd);
+}
 
 std::string kib(std::uintmax_t bytes) { return std::to_string((bytes + 1023) / 1024) + " kB"; }
 
@@ -41,15 +57,22 @@ std::string kib(std::uintmax_t bytes) { return std::to_string((bytes + 1023) / 1
 // (summary.json, run.json, the index) still fits in `reserve` (an independent run on a 2 MB file
 // system found a summary.json of 0 bytes). A disk that fills after the check fails the write
 // itself, which keeps the previous file (write_file_atomic).
+bool same_file_system(const std::string& a, const std::string& b);
+
 void check_room(const std::string& dir, std::uintmax_t need, std::uintmax_t reserve,
                 const std::string& what) {
+  const std::uintmax_t kept = reserve;  // for the message: all that is kept
+  // the part of the reserve that the reserve file already holds is not free any more
+  if (g_reserve_held > 0 && reserve > 0 &&
+      same_file_system(dir, std::filesystem::path(g_reserve_file).parent_path().string()))
+    reserve -= std::min(reserve, g_reserve_held);
   struct statvfs st {};
-  if (statvfs(dir.c_str(), &st) != 0) return;  // not known: HDF5's own errors remain
+  if (statvfs(dir.c_str(), &st) != 0) return;  // not known: the write itself reports a full disk
   const std::uintmax_t room = static_cast<std::uintmax_t>(st.f_bavail) * st.f_frsize;
   if (room < need + reserve)
     throw std::runtime_error("the file system of '" + dir + "' has " + kib(room) + " free; " +
                              what + " needs about " + kib(need) +
-                             (reserve > 0 ? " and " + kib(reserve) +
+                             (kept > 0 ? " and " + kib(kept) +
                                                 " are kept for the run's summary"
                                           : std::string()) +
                              ": free space there, or write fewer or smaller outputs "
@@ -114,6 +137,22 @@ void open_series(std::ofstream& out, const std::string& file, const char* header
 
 void set_stop_reserve(std::uintmax_t bytes) {
   g_stop_reserve = std::max<std::uintmax_t>(bytes, 64 * 1024);
+  grow_reserve();
+}
+
+void hold_stop_reserve(const std::string& dir) {
+  g_reserve_file = dir + "/.granflow_reserve";
+  g_reserve_held = 0;
+  grow_reserve();
+}
+
+void release_stop_reserve() {
+  if (!g_reserve_file.empty()) {
+    std::error_code ec;
+    std::filesystem::remove(g_reserve_file, ec);
+  }
+  g_reserve_file.clear();
+  g_reserve_held = 0;
 }
 
 void write_file_atomic(const std::string& file, const void* data, std::size_t size) {
@@ -653,15 +692,11 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
       } else {
         H5Handle f(opened, H5Fclose, "open " + file);
         run_id_ = run_id_of(f.id);
-        bool listed_any = false;
         std::set<std::string> listed;
         for (const auto& s : children(f.id)) {
           H5L_info_t info;
           if (H5Lget_info(f.id, s.c_str(), &info, H5P_DEFAULT) < 0) continue;
-          if (info.type == H5L_TYPE_EXTERNAL) {
-            listed.insert(s);
-            listed_any = true;
-          }
+          if (info.type == H5L_TYPE_EXTERNAL) listed.insert(s);
           if (info.type != H5L_TYPE_HARD)
             continue;  // a link to a file of fields.h5.d (listed above when it is there)
           double t = 0.0;
@@ -695,9 +730,8 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
         // A readable index names the run's snapshots: a file it does not list is a write the
         // run did not finish (after the checkpoint) or a copy placed there (an independent
         // run copied step_000001.h5 to step_000007.h5: it was taken as a snapshot).
-        if (listed_any || !listed.empty())
-          for (auto it = found.begin(); it != found.end();)
-            it = listed.count(it->first) ? std::next(it) : found.erase(it);
+        for (auto it = found.begin(); it != found.end();)
+          it = listed.count(it->first) ? std::next(it) : found.erase(it);
       }
     }
     if (run_id_.empty())  // no index (lost, or older): the kept files' id, else a new one
