@@ -282,8 +282,7 @@ const std::vector<std::string>& output_file_names() {
   static const std::vector<std::string> names{
       "run.json",      "summary.json",     "profiles.csv",  "profiles.csv.tmp", "fields.h5",
       "fields.h5.tmp", "fields.h5.d",      "fields.xdmf",   "fields.xdmf.tmp",  "checkpoint.h5",
-      "checkpoint.h5.tmp", "run.json.tmp", "wall.csv",      "wall.csv.tmp",     "summary.json.tmp",
-      ".granflow_reserve"};
+      "checkpoint.h5.tmp", "run.json.tmp", "wall.csv",      "wall.csv.tmp",     "summary.json.tmp"};
   return names;
 }
 

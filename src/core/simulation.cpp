@@ -574,7 +574,8 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
     s["restarts"] = nlohmann::json::parse(restarts_);
     s["restarts_note"] = "every restart of this run in order: the checkpoint's time and file, "
                          "and the parameters that leg changed ('before' the earlier part's "
-                         "value, '' where not set); 'parameters' above are the last leg's";
+                         "value, '' where not set); 'parameters' above are the last leg's. A "
+                         "checkpoint written before 2026-12-07 carries no earlier restarts";
   }
   // the fastest material velocity of the accepted states (the stability suite's bound)
   s["speed_limit"] = {{"value", rc_.effective_speed_limit()},
@@ -796,12 +797,14 @@ int Simulation::run() {
       } catch (const std::exception&) {
         legs = nlohmann::json::array();  // the checksum held; an unparsable history is dropped
       }
+      if (!legs.is_array()) legs = nlohmann::json::array();
     }
     nlohmann::json changed = nlohmann::json::array();
     for (const auto& c : restart_changes(ck, canonical_))
       changed.push_back({{"parameter", c.parameter}, {"before", c.before}, {"after", c.after}});
     legs.push_back({{"t", restart_time_}, {"from", rc_.restart_from}, {"changed", changed}});
-    restarts_ = legs.dump();
+    // (bytes that are not UTF-8 in a path or a value are replaced, as in summary.json)
+    restarts_ = legs.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   }
   // Take the run directory: rank 0 decides (and removes an earlier run's files); every rank
   // learns the verdict.

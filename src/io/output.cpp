@@ -34,21 +34,27 @@ bool after(double t, double t_keep) { return t > t_keep + 1e-9 * std::max(1.0, s
 
 // room kept on the disk for what a stop writes (set_stop_reserve)
 std::uintmax_t g_stop_reserve = 64 * 1024;
-// the file that holds that room (hold_stop_reserve) and the bytes it holds
-std::string g_reserve_file;
+// the room held (hold_stop_reserve): an unlinked file of the run directory, open as g_reserve_fd,
+// so that the kernel frees it however the process ends (a named file was left behind by a
+// killed run, and a restart then held more than it counted); its directory and bytes held
+std::string g_reserve_dir;
+int g_reserve_fd = -1;
 std::uintmax_t g_reserve_held = 0;
 
-// Grows the reserve file to g_stop_reserve; where the disk has no room for more, what it held
-// stays held.
+// Grows the held room to g_stop_reserve; where the disk has no room for more, what it held stays
+// held. Held counts the blocks the file has (a file system may answer fallocate with a sparse
+// file, ZFS, or glibc's fallback may write zeros that a compressing one does not store).
 void grow_reserve() {
-  if (g_reserve_file.empty() || g_reserve_held >= g_stop_reserve) return;
-  const int fd = ::open(g_reserve_file.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
-  if (fd < 0) return;
-  if (::posix_fallocate(fd, 0, static_cast<off_t>(g_stop_reserve)) == 0)
-    g_reserve_held = g_stop_reserve;
-  else if (::ftruncate(fd, static_cast<off_t>(g_reserve_held)) != 0)
+  if (g_reserve_fd < 0 || g_reserve_held >= g_stop_reserve) return;
+  if (::posix_fallocate(g_reserve_fd, 0, static_cast<off_t>(g_stop_reserve)) != 0 &&
+      ::ftruncate(g_reserve_fd, static_cast<off_t>(g_reserve_held)) != 0)
+    g_reserve_held = 0;
+  struct stat st {};
+  if (::fstat(g_reserve_fd, &st) == 0)
+    g_reserve_held = std::min<std::uintmax_t>(
+        g_stop_reserve, static_cast<std::uintmax_t>(st.st_blocks) * 512u);
+  else
     g_reserve_held = 0;  // not known: the room checks keep the whole reserve free
-  ::close(fd);
 }
 
 std::string kib(std::uintmax_t bytes) { return std::to_string((bytes + 1023) / 1024) + " kB"; }
@@ -64,7 +70,7 @@ void check_room(const std::string& dir, std::uintmax_t need, std::uintmax_t rese
   const std::uintmax_t kept = reserve;  // for the message: all that is kept
   // the part of the reserve that the reserve file already holds is not free any more
   if (g_reserve_held > 0 && reserve > 0 &&
-      same_file_system(dir, std::filesystem::path(g_reserve_file).parent_path().string()))
+      same_file_system(dir, g_reserve_dir))
     reserve -= std::min(reserve, g_reserve_held);
   struct statvfs st {};
   if (statvfs(dir.c_str(), &st) != 0) return;  // not known: the write itself reports a full disk
@@ -141,18 +147,26 @@ void set_stop_reserve(std::uintmax_t bytes) {
 }
 
 void hold_stop_reserve(const std::string& dir) {
-  g_reserve_file = dir + "/.granflow_reserve";
+  release_stop_reserve();
+#ifdef O_TMPFILE
+  g_reserve_fd = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+#endif
+  if (g_reserve_fd < 0) {  // no O_TMPFILE here: a named file, unlinked at once
+    const std::string f = dir + "/.granflow_reserve";
+    g_reserve_fd = ::open(f.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0600);
+    if (g_reserve_fd >= 0) ::unlink(f.c_str());
+  }
+  if (g_reserve_fd < 0) return;  // nothing held: the room checks keep the whole reserve free
+  g_reserve_dir = dir;
   g_reserve_held = 0;
   grow_reserve();
 }
 
 void release_stop_reserve() {
-  if (!g_reserve_file.empty()) {
-    std::error_code ec;
-    std::filesystem::remove(g_reserve_file, ec);
-  }
-  g_reserve_file.clear();
+  if (g_reserve_fd >= 0) ::close(g_reserve_fd);
+  g_reserve_fd = -1;
   g_reserve_held = 0;
+  g_reserve_dir.clear();
 }
 
 void write_file_atomic(const std::string& file, const void* data, std::size_t size) {
@@ -654,7 +668,7 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
   const auto fapl = unlocked_access();
   std::vector<std::pair<std::string, double>> kept;  // (name, time), the snapshots kept
   std::vector<std::string> unreadable;               // snapshot files set aside (.broken)
-  std::vector<std::string> lost_groups;              // an older fields.h5's unreadable groups
+  std::vector<std::string> lost_groups;  // an older fields.h5's unreadable groups, listed files missing
   run_id_.clear();
   if (keep_until >= 0.0 && (fs::exists(file) || has_snapshots(sdir))) {
     // Restart: keep the snapshots up to the checkpoint time (a run stopped between its field
@@ -697,7 +711,7 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
           H5L_info_t info;
           if (H5Lget_info(f.id, s.c_str(), &info, H5P_DEFAULT) < 0) continue;
           if (info.type == H5L_TYPE_EXTERNAL) listed.insert(s);
-          if (info.type != H5L_TYPE_HARD)
+          if (info.type != H5L_TYPE_HARD || !is_snapshot_name(snapshot_file(s)))
             continue;  // a link to a file of fields.h5.d (listed above when it is there)
           double t = 0.0;
           std::vector<char> image;
@@ -715,7 +729,7 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
                                            hdf5_error_text());
             });
           } catch (const std::runtime_error&) {
-            lost_groups.push_back(s);
+            lost_groups.push_back(s + " (a group in fields.h5)");
             H5Eclear2(H5E_DEFAULT);
             continue;
           }
@@ -732,6 +746,19 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
         // run copied step_000001.h5 to step_000007.h5: it was taken as a snapshot).
         for (auto it = found.begin(); it != found.end();)
           it = listed.count(it->first) ? std::next(it) : found.erase(it);
+        // listed, but without a file (a run directory moved without its fields.h5.d)
+        std::vector<std::string> missing;
+        for (const auto& l : listed)
+          if (!found.count(l) &&
+              std::find(unreadable.begin(), unreadable.end(), l) == unreadable.end())
+            missing.push_back(l);
+        if (!missing.empty() && missing.size() == listed.size())
+          throw std::runtime_error(
+              "'" + file + "' lists " + std::to_string(listed.size()) +
+              " snapshots and '" + sdir + "' holds none of their files (a run directory moved "
+              "without it?); allowed: fields.h5.d back beside fields.h5, or fields.h5 moved "
+              "away to restart with a new field output");
+        for (const auto& l : missing) lost_groups.push_back(l + " (listed, no file)");
       }
     }
     if (run_id_.empty())  // no index (lost, or older): the kept files' id, else a new one
@@ -766,7 +793,7 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
   if (!unreadable.empty() || !lost_groups.empty()) {
     std::string names;
     for (const auto& s : unreadable) names += (names.empty() ? "" : ", ") + s;
-    for (const auto& s : lost_groups) names += (names.empty() ? "" : ", ") + s + " (in fields.h5)";
+    for (const auto& s : lost_groups) names += (names.empty() ? "" : ", ") + s;
     std::cerr << "granflow: note: the field output in " << dir
               << " held snapshots that cannot be read (" << names
               << "); they are left out (a file of fields.h5.d kept as <name>.h5.broken), and "
@@ -807,11 +834,15 @@ FieldReader::FieldReader(const std::string& file) : file_(file) {
   for (const auto& s : children(f.id)) {
     H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose,
                "open " + s + " in " + file + " (its file in fields.h5.d beside it)");
-    if (run_id_of(g.id) != run)
+    // (a snapshot without an id was written before ids; it is taken as it is)
+    const std::string id = run_id_of(g.id);
+    if (!id.empty() && id != run)
       throw std::runtime_error(
-          "snapshot " + s + " read through " + file + " is another run's: its file " +
-          snapshot_file(s) + " is not in the fields.h5.d beside " + file +
-          ", and HDF5 then looks in the current directory; keep fields.h5.d with fields.h5");
+          "snapshot " + s + " read through " + file + " is another run's (run id " + id +
+          ", the index's " + (run.empty() ? std::string("none") : run) +
+          "): a file " + snapshot_file(s) + " missing from the fields.h5.d beside " + file +
+          " is looked for by HDF5 in the current directory too; keep fields.h5.d with "
+          "fields.h5");
     snaps.emplace_back(read_attr(g.id, "time"), s);
   }
   std::sort(snaps.begin(), snaps.end());

@@ -82,8 +82,8 @@ expect 0 "completed at t = 0.75 s" race2.xml
 [ -L race/fields.h5.d ] || fail "race: the restart replaced the link fields.h5.d"
 [ "$(json race/summary.json "s['outputs']['field_snapshots']")" = 16 ] || fail "race: the restart's fields.h5 holds $(json race/summary.json "s['outputs']['field_snapshots']") snapshots, not 16"
 # Another process fills the disk while the run writes (outputs every 0.01 s; the filler waits
-# for a few snapshots, then takes all the room): the room kept for the summary is held in a
-# file (.granflow_reserve, posix_fallocate) and given back when the stop writes it. Without it
+# for a few snapshots, then takes all the room): the room kept for the summary is held in an
+# unlinked file (posix_fallocate) and given back when the stop writes it. Without it
 # the filler took that room too and 6 of 7 such stops left no summary.json (the build before,
 # measured; an independent run: 4 of 7).
 rm -f small/filler
@@ -91,13 +91,20 @@ for trial in 1 2 3; do
   rm -rf small/*
   scene "$SRC/io_ndam10.xml" filled.xml -e "s|value=\"io_run\"|value=\"$here/small/run\"|" \
     -e 's|name="Interval" type="double" value="0.05"|name="Interval" type="double" value="0.01"|'
-  ( while [ "$(ls small/run/fields.h5.d 2>/dev/null | grep -c step_)" -lt $((2 + trial)) ]; do sleep 0.01; done
+  ( for _ in $(seq 3000); do  # at most 30 s
+      [ "$(ls small/run/fields.h5.d 2>/dev/null | grep -c step_)" -ge $((2 + trial)) ] && break
+      sleep 0.01
+    done
     head -c 10M /dev/zero > small/filler 2>/dev/null ) &
   filler=$!
   expect 4 "No space left on device|kB free" filled.xml
   wait $filler
   [ "$(json small/run/summary.json "s['status'], s['exit_code']")" = "error 4" ] ||
     fail "trial $trial: no summary after another process filled the disk"
-  [ -e small/run/.granflow_reserve ] && fail "trial $trial: the reserve file was left behind"
+  [ -s small/filler ] || fail "trial $trial: the filler did not run (the case this tests)"
+  t_end=$(json small/run/summary.json "s['final_time']")
+  python3 -c "import sys; sys.exit(float(sys.argv[1]) >= 0.75)" "$t_end" ||
+    fail "trial $trial: the run reached its end ($t_end s): the disk was not filled during it"
+  ls -a small/run | grep -q granflow_reserve && fail "trial $trial: a reserve file is visible"
 done
 echo "full disk test passed"

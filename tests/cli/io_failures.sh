@@ -203,4 +203,11 @@ echo "granflow-study budget ../only (from broken/) -> $rc"; echo "$out" | tail -
 echo "$out" | grep -q "snapshot step_000000 read through ../only/fields.h5 is another run's" ||
   fail "granflow-study did not say why"
 out=$("$study" budget linked --from 0.05 --to 0.2 2>&1) || fail "granflow-study on the run itself: $out"
+
+# 9. A run directory moved without its fields.h5.d and restarted: the index lists snapshots
+#    whose files are not there; it was replaced by an empty one without a word (a review)
+mkdir moved && cp linked/*.h5 linked/*.csv linked/*.json linked/fields.xdmf moved/
+scene "$SRC/io_ndam10.xml" moved.xml -e 's|value="io_run"|value="moved"|' \
+  -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="moved/checkpoint.h5"/>&|'
+expect 4 "'moved/fields.h5' lists 5 snapshots and 'moved/fields.h5.d' holds none of their files" moved.xml
 echo "io failures test passed"

@@ -131,12 +131,13 @@ class FieldReader {
 /// stop writes (summary.json, run.json): the rows and snapshots check it before they are
 /// written, and a full disk stops the run while its summary still fits.
 void set_stop_reserve(std::uintmax_t bytes);
-/// Holds that room in a file of `dir` (.granflow_reserve, allocated with posix_fallocate and
-/// grown with set_stop_reserve), so that a disk filled by another process still has it when
-/// the run stops: another process took it before, and 4 of 7 such stops left no summary (an
-/// independent run). The room checks count the held bytes as kept. Never throws.
+/// Holds that room in an unlinked file of `dir` (allocated with posix_fallocate, grown with
+/// set_stop_reserve; the kernel frees it however the process ends), so that a disk that another
+/// process has filled still has it when the run stops: another process took it before, and 4 of
+/// 7 such stops left no summary (an independent run). The room checks count the held bytes
+/// (the file's blocks) as kept. Never throws.
 void hold_stop_reserve(const std::string& dir);
-/// Frees the held room (removes the file) just before the stop writes its summary.
+/// Frees the held room just before the stop writes its summary.
 void release_stop_reserve();
 
 /// Writes `file` atomically: the bytes go to file.tmp, which replaces `file` only once every
