@@ -849,6 +849,14 @@ int Simulation::run() {
                                               canonical_, files_, "running"});
   });
   on_io_rank([&] { io::hold_stop_reserve(rc_.directory); });
+  // A continued run with Checkpoint off leaves the earlier part's checkpoint in the directory: a
+  // restart from it goes back to its time and cuts this part's outputs (noticed in session 40;
+  // said, not changed: it is the last restartable state the directory has).
+  if (continued_ && !rc_.checkpoint && io_rank() &&
+      std::filesystem::exists(rc_.directory + "/checkpoint.h5"))
+    std::cerr << "granflow: note: Output->Checkpoint is off: " << rc_.directory
+              << "/checkpoint.h5 stays the earlier part's (t = " << params::str(restart_time_)
+              << " s); a restart from it cuts this part's outputs back to that time\n";
   // From here on the directory is this run's: whatever stops it leaves a summary.json.
   auto summary_then_rethrow = [&](const std::string& status, const char* what, int code) {
     try {

@@ -119,4 +119,9 @@ assert r[0]["changed"] == [{"parameter": "Name", "before": "cut_a", "after": "cu
 assert r[1]["changed"] == [{"parameter": "Output->Interval", "before": "0.05", "after": "0.1"},
                            {"parameter": "Time->End time", "before": "0.2", "after": "0.3"}], r[1]
 PYEOF
+# A continuation with Checkpoint off says that the directory's checkpoint stays the earlier
+# part's (a restart from it cuts this part's outputs back)
+dam nockpt.xml cut -e 's|"End time" type="double" value="0.1"|"End time" type="double" value="0.35"|' \
+    -e 's|<Parameter name="Interval" type="double" value="0.05"/>|<Parameter name="Interval" type="double" value="0.1"/><Parameter name="Checkpoint" type="bool" value="false"/><Parameter name="Restart from" type="string" value="cut/checkpoint.h5"/>|'
+expect 0 "note: Output->Checkpoint is off: cut/checkpoint.h5 stays the earlier part's \(t = 0.3 s\)" nockpt.xml
 echo "run directory checks passed"
