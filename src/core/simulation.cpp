@@ -406,6 +406,9 @@ void Simulation::write_checkpoint() {
   c.set_text(kSceneKey, joined(canonical_));
   c.set_text(kIdentityKey, identity_);
   c.set_text(kRestartsKey, restarts_);
+  // the field output's run id (rank 0 writes the checkpoint; a run with Fields off keeps the
+  // one it restarted with, so that a later leg with Fields on recognises the files)
+  c.set_text(kFieldsIdKey, rc_.fields && io_rank() ? io_->fields.run_id() : fields_id_);
   model_->save(c);
   on_io_rank([&] { io::write_checkpoint(rc_.directory + "/checkpoint.h5", c); });
   model_->restart_point();  // a restart from here and the run itself continue alike
@@ -805,6 +808,7 @@ int Simulation::run() {
     legs.push_back({{"t", restart_time_}, {"from", rc_.restart_from}, {"changed", changed}});
     // (bytes that are not UTF-8 in a path or a value are replaced, as in summary.json)
     restarts_ = legs.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+    if (ck.has_text(kFieldsIdKey)) fields_id_ = ck.text(kFieldsIdKey);
   }
   // Take the run directory: rank 0 decides (and removes an earlier run's files); every rank
   // learns the verdict.
@@ -929,7 +933,9 @@ int Simulation::advance(const io::Checkpoint& ck) {
       if (restarted_ && !continued_ && ck.arrays().count("run/wall_series"))
         io_->wall.restore(ck.array("run/wall_series"));
     }
-    if (rc_.fields) io_->fields.open(rc_.directory, keep);
+    // the run id of the field output the checkpoint belongs to (a continued run's index and
+    // files must carry it; a checkpoint written before 2026-12-07 has none)
+    if (rc_.fields) io_->fields.open(rc_.directory, keep, continued_ ? fields_id_ : "");
     else if (continued_) io::truncate_fields(rc_.directory, t0_);
     // A continued run's summary.json is the earlier part's ("completed" at its end time): a
     // restart killed before its own summary left that one beside profiles.csv rows past it (an

@@ -4,6 +4,7 @@
 
 #include <hdf5.h>
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/statvfs.h>
 #include <unistd.h>
@@ -601,33 +602,88 @@ bool has_snapshots(const std::string& sdir) {
 
 // A fields.h5.d that is a link (to a directory on a larger disk) is shared by every copy of the
 // run directory (cp -r copies the link), and a fresh run or a restart in one copy removed the
-// other's snapshots (a review of the change). The run directory marks the linked directory as
-// its own; a directory marked by another run that still holds snapshots is refused.
-void claim_snapshots(const std::string& dir, const std::string& sdir) {
+// other's snapshots (a review of the change). The checks, for a link:
+// - it points at an existing directory that the run can write into (a read-only mount ran a
+//   whole leg before it failed at the first output; an independent run);
+// - not into another run directory's own fields.h5.d (--overwrite replaced that run's
+//   snapshots);
+// - its mark (.granflow_run: the run directory whose snapshots it holds) is this run's, or it
+//   holds no snapshots (the run then marks it);
+// - no other granflow uses it now (two runs started together on one empty directory both
+//   marked it and wrote into it: an exclusive flock on the directory, held for the run).
+// `take` marks the directory and takes the lock; without it (plan_directory, --check) only the
+// checks. A directory of the run directory's own needs only to be writable.
+int g_snapshot_lock_fd = -1;
+std::string g_snapshot_lock_path;
+
+void probe_writable(const std::string& sdir) {
+  const std::string probe = sdir + "/.granflow_probe_" + std::to_string(::getpid());
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  const int err = errno;
+  if (fd >= 0) {
+    ::close(fd);
+    ::unlink(probe.c_str());
+    return;
+  }
+  throw std::runtime_error("'" + sdir + "' cannot be written (" + std::strerror(err) +
+                           "); allowed: a directory the run can write into");
+}
+
+void check_snapshot_dir(const std::string& dir, const std::string& sdir, bool take) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (fs::is_symlink(sdir, ec) && !fs::exists(sdir, ec))
+  const bool link = fs::is_symlink(sdir, ec);
+  if (link && !fs::exists(sdir, ec))
     throw std::runtime_error("'" + sdir + "' is a link to '" + fs::read_symlink(sdir, ec).string() +
                              "', which does not exist; allowed: a link to an existing "
                              "directory, or no fields.h5.d (the run creates it)");
-  fs::create_directories(sdir);
-  if (!fs::is_symlink(sdir, ec)) return;  // a directory of the run directory's own
-  const std::string me = fs::canonical(dir).string();
+  if (take) fs::create_directories(sdir);
+  if (!fs::exists(sdir, ec)) return;
+  if (!fs::is_directory(sdir, ec))
+    throw std::runtime_error("'" + sdir + "' is not a directory; allowed: a directory (or a "
+                             "link to one) for the field snapshots, or none");
+  probe_writable(sdir);
+  if (!link) return;
+  const fs::path target = fs::canonical(sdir, ec), me = fs::canonical(dir, ec);
+  const fs::path holder = target.parent_path();
+  if (target.filename() == kSnapshotDir && fs::exists(holder / "run.json", ec) &&
+      !fs::equivalent(holder, me, ec))
+    throw std::runtime_error("'" + sdir + "' links to '" + target.string() +
+                             "', the field snapshots of the run directory '" + holder.string() +
+                             "'; allowed: a link to a directory of this run's own");
+  if (take && g_snapshot_lock_path != target.string()) {
+    if (g_snapshot_lock_fd >= 0) ::close(g_snapshot_lock_fd);
+    g_snapshot_lock_fd = ::open(target.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+    if (g_snapshot_lock_fd >= 0 && ::flock(g_snapshot_lock_fd, LOCK_EX | LOCK_NB) != 0) {
+      ::close(g_snapshot_lock_fd);
+      g_snapshot_lock_fd = -1;
+      g_snapshot_lock_path.clear();
+      throw std::runtime_error("'" + sdir + "' links to '" + target.string() +
+                               "', which another running granflow writes into; allowed: a "
+                               "link to a directory of this run's own");
+    }
+    g_snapshot_lock_path = target.string();
+  }
   const std::string mark = sdir + "/" + kOwnerFile;
   std::string owner;
   {
     std::ifstream in(mark);
     std::getline(in, owner);
   }
-  if (owner == me) return;
-  if (!owner.empty() && has_snapshots(sdir))
+  const bool mine = owner == me.string() || (fs::exists(owner, ec) && fs::equivalent(owner, me, ec));
+  if (!owner.empty() && !mine && has_snapshots(sdir))
     throw std::runtime_error(
-        "'" + sdir + "' links to '" + fs::canonical(sdir).string() +
-        "', which holds the field snapshots of the run in '" + owner +
-        "': two runs cannot share it (a copy of a run directory copies the link). Allowed: a "
+        "'" + sdir + "' links to '" + target.string() + "', which holds the field snapshots of " +
+        (fs::exists(owner, ec) ? "the run in '" + owner + "'"
+                               : "a run once in '" + owner + "' (no longer there)") +
+        ": two runs cannot share it (a copy of a run directory copies the link). Allowed: a "
         "link to a directory of this run's own; if that run was moved here, remove '" + mark +
         "'");
-  write_file_atomic(mark, me + "\n");
+  if (take && !mine) write_file_atomic(mark, me.string() + "\n");
+}
+
+void claim_snapshots(const std::string& dir, const std::string& sdir) {
+  check_snapshot_dir(dir, sdir, true);
 }
 
 // fields.h5 itself: one external link per snapshot, step_NNNNNN -> fields.h5.d/step_NNNNNN.h5:/
@@ -654,7 +710,8 @@ std::vector<char> index_image(const std::string& file, const std::vector<std::st
 // (write_file_atomic); fields.h5 is the index of links to them, rebuilt in memory and replaced
 // after each snapshot. So a full disk fails in our checked writes (the snapshot's file is not
 // made, the index still lists the earlier ones), never inside HDF5.
-void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
+void Hdf5FieldOutput::open(const std::string& dir, double keep_until,
+                           const std::string& expected_id) {
   namespace fs = std::filesystem;
   quiet_hdf5();
   dir_ = dir;
@@ -706,6 +763,21 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
       } else {
         H5Handle f(opened, H5Fclose, "open " + file);
         run_id_ = run_id_of(f.id);
+        // Another run's index (copied over this one's): its list is not this run's; the
+        // snapshots are rebuilt from this run's files (an independent run: the restart took
+        // the other's list and id and deleted four of its own snapshots without a word).
+        // (Only when some file carries the checkpoint's id: a checkpoint copied in from
+        // another run of the scene, whose id no file has, leaves the directory's index and
+        // files as they are.)
+        bool expected_files = false;
+        for (const auto& [name, id] : file_run) expected_files = expected_files || id == expected_id;
+        const bool foreign = !expected_id.empty() && !run_id_.empty() &&
+                             run_id_ != expected_id && expected_files;
+        if (foreign || run_id_.empty()) run_id_ = expected_id;
+        if (foreign) {
+          lost_groups.push_back("fields.h5 is another run's index (run id " + run_id_of(f.id) +
+                                ", this run's " + expected_id + "): rebuilt from the files");
+        } else {
         std::set<std::string> listed;
         for (const auto& s : children(f.id)) {
           H5L_info_t info;
@@ -729,7 +801,7 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
                                            hdf5_error_text());
             });
           } catch (const std::runtime_error&) {
-            lost_groups.push_back(s + " (a group in fields.h5)");
+            lost_groups.push_back(s + " (a group in fields.h5) cannot be read");
             H5Eclear2(H5E_DEFAULT);
             continue;
           }
@@ -758,9 +830,27 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
               " snapshots and '" + sdir + "' holds none of their files (a run directory moved "
               "without it?); allowed: fields.h5.d back beside fields.h5, or fields.h5 moved "
               "away to restart with a new field output");
-        for (const auto& l : missing) lost_groups.push_back(l + " (listed, no file)");
+        for (const auto& l : missing) lost_groups.push_back(l + " is listed but has no file");
+        }
       }
     }
+    if (!expected_id.empty() && run_id_.empty()) run_id_ = expected_id;
+    // files of another run (copied in): not this run's snapshots, set aside, not removed
+    for (auto it = found.begin(); it != found.end();) {
+      if (!run_id_.empty() && !file_run[it->first].empty() && file_run[it->first] != run_id_) {
+        std::error_code ec;
+        fs::rename(sdir + "/" + snapshot_file(it->first),
+                   sdir + "/" + snapshot_file(it->first) + ".other_run", ec);
+        lost_groups.push_back(it->first + " is another run's (kept as " +
+                              snapshot_file(it->first) + ".other_run)");
+        it = found.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    if (found.empty() && unreadable.empty() && !fs::exists(file))
+      lost_groups.push_back("no snapshot of the earlier part is there (neither fields.h5 nor "
+                            "its files): the field output starts again with this part");
     if (run_id_.empty())  // no index (lost, or older): the kept files' id, else a new one
       for (const auto& [s, t] : found)
         if (!after(t, keep_until) && !file_run[s].empty()) {
@@ -791,14 +881,13 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until) {
       fs::remove(e.path());
   }
   if (!unreadable.empty() || !lost_groups.empty()) {
-    std::string names;
-    for (const auto& s : unreadable) names += (names.empty() ? "" : ", ") + s;
-    for (const auto& s : lost_groups) names += (names.empty() ? "" : ", ") + s;
-    std::cerr << "granflow: note: the field output in " << dir
-              << " held snapshots that cannot be read (" << names
-              << "); they are left out (a file of fields.h5.d kept as <name>.h5.broken), and "
-                 "fields.h5 lists the "
-              << kept.size() << " snapshots up to the checkpoint\n";
+    std::string items;
+    for (const auto& s : unreadable)
+      items += (items.empty() ? "" : "; ") + s + " cannot be read (kept as " + snapshot_file(s) +
+               ".broken)";
+    for (const auto& s : lost_groups) items += (items.empty() ? "" : "; ") + s;
+    std::cerr << "granflow: note: the field output in " << dir << " at the restart: " << items
+              << "; fields.h5 lists the " << kept.size() << " snapshots up to the checkpoint\n";
   }
   names_.clear();
   for (const auto& [s, t] : kept) {
@@ -986,26 +1075,7 @@ void Hdf5FieldOutput::write_xdmf() const {
 }
 
 void check_field_snapshots(const std::string& dir) {
-  namespace fs = std::filesystem;
-  const std::string sdir = dir + "/" + kSnapshotDir;
-  std::error_code ec;
-  if (!fs::is_symlink(sdir, ec)) return;
-  if (!fs::exists(sdir, ec))
-    throw std::runtime_error("'" + sdir + "' is a link to '" + fs::read_symlink(sdir, ec).string() +
-                             "', which does not exist; allowed: a link to an existing "
-                             "directory, or no fields.h5.d (the run creates it)");
-  std::string owner;
-  {
-    std::ifstream in(sdir + "/" + kOwnerFile);
-    std::getline(in, owner);
-  }
-  if (!owner.empty() && owner != fs::canonical(dir, ec).string() && has_snapshots(sdir))
-    throw std::runtime_error(
-        "'" + sdir + "' links to '" + fs::canonical(sdir, ec).string() +
-        "', which holds the field snapshots of the run in '" + owner +
-        "': two runs cannot share it (a copy of a run directory copies the link). Allowed: a "
-        "link to a directory of this run's own; if that run was moved here, remove '" + sdir +
-        "/" + kOwnerFile + "'");
+  check_snapshot_dir(dir, dir + "/" + kSnapshotDir, false);
 }
 
 void remove_field_snapshots(const std::string& sdir) {

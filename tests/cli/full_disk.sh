@@ -15,7 +15,7 @@ if ! mount -t tmpfs -o size=2M tmpfs small 2>/dev/null; then
   echo "skipped: cannot mount a tmpfs here (not root, or no CAP_SYS_ADMIN)"
   exit 77
 fi
-trap 'cd "$OLDPWD" 2>/dev/null; umount full_disk/small 2>/dev/null || umount small 2>/dev/null' EXIT
+trap 'cd "$OLDPWD" 2>/dev/null; umount full_disk/ro 2>/dev/null || umount ro 2>/dev/null; umount full_disk/small 2>/dev/null || umount small 2>/dev/null' EXIT
 here=$(pwd)
 fill() {  # leave $1 kB free
   rm -rf small/*
@@ -107,4 +107,11 @@ for trial in 1 2 3; do
     fail "trial $trial: the run reached its end ($t_end s): the disk was not filled during it"
   ls -a small/run | grep -q granflow_reserve && fail "trial $trial: a reserve file is visible"
 done
+# A fields.h5.d on a read-only file system: refused in --check and at the start (it ran a whole
+# leg and failed at its first output; an independent run)
+mkdir -p ro rorun && mount -t tmpfs -o ro,size=64k tmpfs ro && ln -s "$here/ro" rorun/fields.h5.d
+scene "$SRC/io_ndam10.xml" ro.xml -e "s|value=\"io_run\"|value=\"rorun\"|"
+expect 2 "'rorun/fields.h5.d' cannot be written \(Read-only file system\)" --check ro.xml
+expect 2 "'rorun/fields.h5.d' cannot be written \(Read-only file system\)" ro.xml
+umount ro
 echo "full disk test passed"

@@ -105,7 +105,7 @@ head -c 100 broken/fields.h5.d/step_000006.h5 > cut && mv cut broken/fields.h5.d
 rm broken/fields.h5
 scene "$SRC/io_ndam10.xml" broken2.xml -e 's|value="io_run"|value="broken"|' \
   -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="broken/checkpoint.h5"/>&|'
-expect 0 "held snapshots that cannot be read \(step_000006\); they are left out \(a file of fields.h5.d kept as <name>.h5.broken\), and fields.h5 lists the 6 snapshots up to the checkpoint" broken2.xml
+expect 0 "note: the field output in broken at the restart: step_000006 cannot be read \(kept as step_000006.h5.broken\); fields.h5 lists the 6 snapshots up to the checkpoint" broken2.xml
 [ -e broken/fields.h5.d/step_000006.h5.broken ] || fail "the damaged snapshot was not kept aside: $(ls broken/fields.h5.d)"
 $PY - broken <<'PYEOF' || fail "broken: the index after the restart (above)"
 import h5py, os, sys
@@ -204,10 +204,30 @@ echo "$out" | grep -q "snapshot step_000000 read through ../only/fields.h5 is an
   fail "granflow-study did not say why"
 out=$("$study" budget linked --from 0.05 --to 0.2 2>&1) || fail "granflow-study on the run itself: $out"
 
+# A link into another run directory's own fields.h5.d: --overwrite replaced that run's snapshots
+mkdir -p into && ln -s "$(pwd)/broken/fields.h5.d" into/fields.h5.d
+scene "$SRC/io_ndam10.xml" into.xml -e 's|value="io_run"|value="into"|'
+expect 2 "'into/fields.h5.d' links to '[^']*broken/fields.h5.d', the field snapshots of the run directory '[^']*broken'" --overwrite into.xml
+
+# 10. Another run's fields.h5 copied over this run's before a restart: the restart took the
+#     other's list and id and deleted four of its own snapshots without a word (an independent
+#     run). The checkpoint records the field output's run id; the index is rebuilt from the
+#     run's own files and the copy is named.
+scene "$SRC/io_ndam10.xml" other.xml -e 's|value="io_run"|value="other"|' \
+  -e 's|name="End time" type="double" value="0.75"|name="End time" type="double" value="0.1"|'
+expect 0 "completed at t = 0.1 s" other.xml
+cp other/fields.h5 linked/fields.h5
+scene "$SRC/io_ndam10.xml" linked2.xml -e 's|value="io_run"|value="linked"|' \
+  -e 's|name="End time" type="double" value="0.75"|name="End time" type="double" value="0.3"|' \
+  -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="linked/checkpoint.h5"/>&|'
+expect 0 "fields.h5 is another run's index \(run id [0-9a-f]+, this run's [0-9a-f]+\): rebuilt from the files; fields.h5 lists the 5 snapshots up to the checkpoint" linked2.xml
+$PY -c "import h5py, sys; f = h5py.File('linked/fields.h5', 'r'); t = sorted(round(float(f[s].attrs['time']), 9) for s in f); sys.exit(t != [0.0, 0.05, 0.1, 0.15, 0.2, 0.25, 0.3] and f'times {t}')" ||
+  fail "the restart over another run's index"
+
 # 9. A run directory moved without its fields.h5.d and restarted: the index lists snapshots
 #    whose files are not there; it was replaced by an empty one without a word (a review)
 mkdir moved && cp linked/*.h5 linked/*.csv linked/*.json linked/fields.xdmf moved/
 scene "$SRC/io_ndam10.xml" moved.xml -e 's|value="io_run"|value="moved"|' \
   -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="moved/checkpoint.h5"/>&|'
-expect 4 "'moved/fields.h5' lists 5 snapshots and 'moved/fields.h5.d' holds none of their files" moved.xml
+expect 4 "'moved/fields.h5' lists 7 snapshots and 'moved/fields.h5.d' holds none of their files" moved.xml
 echo "io failures test passed"

@@ -54,6 +54,7 @@ std::vector<ParameterChange> restart_changes(const io::Checkpoint& c,
 constexpr const char* kSceneKey = "run/scene";        ///< canonical lines, '\n'-joined
 constexpr const char* kIdentityKey = "run/identity";  ///< scene_identity()
 constexpr const char* kRestartsKey = "run/restarts";  ///< summary.json's restarts, as JSON
+constexpr const char* kFieldsIdKey = "run/fields_id";  ///< the field output's run id
 
 /// Checks that checkpoint `c` (read from `file`) continues this scene: same identity (else
 /// an InputError naming 'Output->Restart from' and each differing parameter) and an end time

@@ -158,6 +158,8 @@ class Simulation {
   /// every restart of the run so far, in order (JSON text: time, checkpoint, changed
   /// parameters), kept in the checkpoint so that a chain of restarts reports all of them
   std::string restarts_ = "[]";
+  /// the field output's run id of the checkpoint restarted from ("" for none)
+  std::string fields_id_;
   std::vector<std::string> canonical_;  ///< validated parameters (run_record.hpp)
   std::string identity_;
   std::vector<std::string> files_;      ///< files this run (and its earlier parts) wrote

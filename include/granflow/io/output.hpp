@@ -96,8 +96,12 @@ class Hdf5FieldOutput {
   Hdf5FieldOutput() = default;
   /// Opens `dir`/fields.h5: a new file, or (`keep_until` >= 0, a restart) the existing one with
   /// the snapshots after keep_until (+ round-off) removed, and the XDMF index rewritten to match.
-  void open(const std::string& dir, double keep_until = -1.0);
+  /// `expected_id`: the run id the checkpoint recorded (a restart): an index or snapshot file
+  /// of another id is not taken as this run's.
+  void open(const std::string& dir, double keep_until = -1.0,
+            const std::string& expected_id = "");
   void write(double t, const FieldWriter& fields);
+  const std::string& run_id() const { return run_id_; }
   int snapshots() const { return static_cast<int>(times_.size()); }
 
  private:
