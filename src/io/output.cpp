@@ -706,10 +706,151 @@ std::vector<char> index_image(const std::string& file, const std::vector<std::st
 }
 }  // namespace
 
+namespace {
+// What a restart finds of the earlier snapshots (Hdf5FieldOutput::open).
+struct SnapshotScan {
+  std::map<std::string, double> found;          // name -> time, readable and the run's
+  std::map<std::string, std::string> file_run;  // name -> the file's run id ("" before ids)
+  std::vector<std::string> unreadable;          // files to set aside as .broken
+  std::vector<std::string> notes;               // what the note at the restart says
+};
+
+// 1. The snapshot files in fields.h5.d, each with its time and run id.
+void scan_snapshot_files(const std::string& sdir, hid_t fapl, SnapshotScan& scan) {
+  for (const auto& e : std::filesystem::directory_iterator(sdir)) {
+    const std::string n = e.path().filename().string();
+    if (!is_snapshot_name(n)) continue;
+    const std::string s = n.substr(0, n.size() - 3);
+    try {
+      H5Handle f(H5Fopen(e.path().c_str(), H5F_ACC_RDONLY, fapl), H5Fclose, "open " + n);
+      scan.found[s] = read_attr(f.id, "time");
+      scan.file_run[s] = run_id_of(f.id);
+    } catch (const std::runtime_error&) {
+      scan.unreadable.push_back(s);
+      H5Eclear2(H5E_DEFAULT);
+    }
+  }
+}
+
+// 2b. A fields.h5 of a granflow before 2026-12-07 holds its snapshots as groups: each one up to
+// the checkpoint is copied into its own file. Reading a group may fail (it is left out);
+// writing its file may not (a full disk): that stops the restart with fields.h5 untouched.
+void convert_group(hid_t index, const std::string& s, const std::string& file,
+                   const std::string& sdir, double keep_until, std::string& run_id,
+                   SnapshotScan& scan, std::set<std::string>& listed) {
+  double t = 0.0;
+  std::vector<char> image;
+  try {
+    H5Handle g(H5Gopen2(index, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
+    t = read_attr(g.id, "time");
+    if (after(t, keep_until)) return;
+    if (run_id.empty()) run_id = new_run_id();
+    image = file_image(s, [&](hid_t out) {
+      write_attr(out, "time", t);
+      write_string_attr(out, "run", run_id);
+      for (const auto& m : children(g.id))
+        if (H5Ocopy(g.id, m.c_str(), out, m.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
+          throw std::runtime_error("HDF5: cannot copy " + s + "/" + m + " of " + file +
+                                   hdf5_error_text());
+    });
+  } catch (const std::runtime_error&) {
+    scan.notes.push_back(s + " (a group in fields.h5) cannot be read");
+    H5Eclear2(H5E_DEFAULT);
+    return;
+  }
+  const std::string to = sdir + "/" + snapshot_file(s);
+  check_room_for(to, image.size(), "copying snapshot " + s + " of fields.h5");
+  write_file_atomic(to, image.data(), image.size());
+  scan.found[s] = t;
+  scan.file_run[s] = run_id;
+  listed.insert(s);
+}
+
+// 2. The old index: its run id, and the snapshots it lists (only those are the run's). An index
+// that cannot be read is rebuilt from the files, unless there are none (an older fields.h5 would
+// be replaced by an empty index). Another run's index (copied over this one's: a restart took
+// its list and id and deleted four of its own snapshots; an independent run) is rebuilt from the
+// run's files, when some carry the checkpoint's id (`expected_id`); a checkpoint copied in from
+// another run of the scene, whose id no file has, leaves the directory's index and files as
+// they are. An index whose files are all missing (a run directory moved without fields.h5.d)
+// stops the restart.
+void read_index(const std::string& file, const std::string& sdir, hid_t fapl, double keep_until,
+                const std::string& expected_id, std::string& run_id, SnapshotScan& scan) {
+  if (!std::filesystem::exists(file)) return;
+  const hid_t opened = H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl);
+  if (opened < 0) {
+    const std::string why = hdf5_error_text();
+    if (scan.found.empty() && scan.unreadable.empty())
+      throw std::runtime_error(
+          "cannot read '" + file + "'" + why + " and '" + sdir +
+          "' holds no snapshot files, so the snapshots before the checkpoint cannot be kept; "
+          "allowed: a readable fields.h5, or move it away to restart with a new field output");
+    return;
+  }
+  H5Handle f(opened, H5Fclose, "open " + file);
+  const std::string index_id = run_id_of(f.id);
+  bool expected_files = false;
+  for (const auto& [name, id] : scan.file_run) expected_files = expected_files || id == expected_id;
+  const bool foreign = !expected_id.empty() && !index_id.empty() && index_id != expected_id &&
+                       expected_files;
+  run_id = foreign || index_id.empty() ? expected_id : index_id;
+  if (foreign) {
+    scan.notes.push_back("fields.h5 is another run's index (run id " + index_id +
+                         ", this run's " + expected_id + "): rebuilt from the files");
+    return;
+  }
+  std::set<std::string> listed;
+  for (const auto& s : children(f.id)) {
+    H5L_info_t info;
+    if (H5Lget_info(f.id, s.c_str(), &info, H5P_DEFAULT) < 0) continue;
+    if (info.type == H5L_TYPE_EXTERNAL) listed.insert(s);
+    else if (info.type == H5L_TYPE_HARD && is_snapshot_name(snapshot_file(s)))
+      convert_group(f.id, s, file, sdir, keep_until, run_id, scan, listed);
+  }
+  // a file the index does not list is a write the run did not finish (after the checkpoint) or
+  // a copy placed there (an independent run copied step_000001.h5 to step_000007.h5: it was
+  // taken as a second snapshot at 0.05 s)
+  for (auto it = scan.found.begin(); it != scan.found.end();)
+    it = listed.count(it->first) ? std::next(it) : scan.found.erase(it);
+  std::vector<std::string> missing;
+  for (const auto& l : listed)
+    if (!scan.found.count(l) &&
+        std::find(scan.unreadable.begin(), scan.unreadable.end(), l) == scan.unreadable.end())
+      missing.push_back(l);
+  if (!missing.empty() && missing.size() == listed.size())
+    throw std::runtime_error(
+        "'" + file + "' lists " + std::to_string(listed.size()) + " snapshots and '" + sdir +
+        "' holds none of their files (a run directory moved without it?); allowed: fields.h5.d "
+        "back beside fields.h5, or fields.h5 moved away to restart with a new field output");
+  for (const auto& l : missing) scan.notes.push_back(l + " is listed but has no file");
+}
+
+// 3. Files of another run (copied in): not this run's snapshots; set aside, not removed.
+void set_aside_other_runs(const std::string& sdir, const std::string& run_id, SnapshotScan& scan) {
+  for (auto it = scan.found.begin(); it != scan.found.end();) {
+    const std::string& id = scan.file_run[it->first];
+    if (run_id.empty() || id.empty() || id == run_id) {
+      ++it;
+      continue;
+    }
+    std::error_code ec;
+    std::filesystem::rename(sdir + "/" + snapshot_file(it->first),
+                            sdir + "/" + snapshot_file(it->first) + ".other_run", ec);
+    scan.notes.push_back(it->first + " is another run's (kept as " + snapshot_file(it->first) +
+                         ".other_run)");
+    it = scan.found.erase(it);
+  }
+}
+}  // namespace
+
 // Each snapshot is its own file, fields.h5.d/step_NNNNNN.h5, built in memory and written whole
 // (write_file_atomic); fields.h5 is the index of links to them, rebuilt in memory and replaced
 // after each snapshot. So a full disk fails in our checked writes (the snapshot's file is not
 // made, the index still lists the earlier ones), never inside HDF5.
+// A restart (keep_until >= 0) keeps the snapshots up to the checkpoint time (a run stopped
+// between its field output and its checkpoint wrote later ones; the restart writes them again):
+// the files the old index lists, rebuilt into a new index, so that an index that was cut or
+// lost is no loss.
 void Hdf5FieldOutput::open(const std::string& dir, double keep_until,
                            const std::string& expected_id) {
   namespace fs = std::filesystem;
@@ -719,149 +860,33 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until,
   names_.clear();
   layouts_.clear();
   next_index_ = 0;
+  run_id_.clear();
   const std::string file = dir + "/fields.h5";
   const std::string sdir = dir + "/" + kSnapshotDir;
   claim_snapshots(dir, sdir);
   const auto fapl = unlocked_access();
-  std::vector<std::pair<std::string, double>> kept;  // (name, time), the snapshots kept
-  std::vector<std::string> unreadable;               // snapshot files set aside (.broken)
-  std::vector<std::string> lost_groups;  // an older fields.h5's unreadable groups, listed files missing
-  run_id_.clear();
+  SnapshotScan scan;
+  std::vector<std::pair<std::string, double>> kept;  // (name, time), in time order
   if (keep_until >= 0.0 && (fs::exists(file) || has_snapshots(sdir))) {
-    // Restart: keep the snapshots up to the checkpoint time (a run stopped between its field
-    // output and its checkpoint wrote later ones; the restart writes them again). The files in
-    // fields.h5.d are the snapshots; fields.h5 is rebuilt from them, so an index that was cut or
-    // lost is no loss. A fields.h5 written by a granflow before 2026-12-07 holds its snapshots
-    // as groups: each kept one is copied into its own file first.
-    std::map<std::string, double> found;
-    std::map<std::string, std::string> file_run;  // each file's run id
-    for (const auto& e : fs::directory_iterator(sdir)) {
-      const std::string n = e.path().filename().string();
-      if (!is_snapshot_name(n)) continue;
-      const std::string s = n.substr(0, n.size() - 3);
-      try {
-        H5Handle f(H5Fopen(e.path().c_str(), H5F_ACC_RDONLY, fapl.id), H5Fclose, "open " + n);
-        found[s] = read_attr(f.id, "time");
-        file_run[s] = run_id_of(f.id);
-      } catch (const std::runtime_error&) {
-        unreadable.push_back(s);
-        H5Eclear2(H5E_DEFAULT);
-      }
-    }
-    if (fs::exists(file)) {
-      const hid_t opened = H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl.id);
-      if (opened < 0) {
-        const std::string why = hdf5_error_text();
-        // The index of snapshot files is rebuilt from them; an older fields.h5 with its
-        // snapshots inside and nothing in fields.h5.d would be replaced by an empty index.
-        if (found.empty() && unreadable.empty())
-          throw std::runtime_error(
-              "cannot read '" + file + "'" + why + " and '" + sdir +
-              "' holds no snapshot files, so the snapshots before the checkpoint cannot be "
-              "kept; allowed: a readable fields.h5, or move it away to restart with a new "
-              "field output");
-      } else {
-        H5Handle f(opened, H5Fclose, "open " + file);
-        run_id_ = run_id_of(f.id);
-        // Another run's index (copied over this one's): its list is not this run's; the
-        // snapshots are rebuilt from this run's files (an independent run: the restart took
-        // the other's list and id and deleted four of its own snapshots without a word).
-        // (Only when some file carries the checkpoint's id: a checkpoint copied in from
-        // another run of the scene, whose id no file has, leaves the directory's index and
-        // files as they are.)
-        bool expected_files = false;
-        for (const auto& [name, id] : file_run) expected_files = expected_files || id == expected_id;
-        const bool foreign = !expected_id.empty() && !run_id_.empty() &&
-                             run_id_ != expected_id && expected_files;
-        if (foreign || run_id_.empty()) run_id_ = expected_id;
-        if (foreign) {
-          lost_groups.push_back("fields.h5 is another run's index (run id " + run_id_of(f.id) +
-                                ", this run's " + expected_id + "): rebuilt from the files");
-        } else {
-        std::set<std::string> listed;
-        for (const auto& s : children(f.id)) {
-          H5L_info_t info;
-          if (H5Lget_info(f.id, s.c_str(), &info, H5P_DEFAULT) < 0) continue;
-          if (info.type == H5L_TYPE_EXTERNAL) listed.insert(s);
-          if (info.type != H5L_TYPE_HARD || !is_snapshot_name(snapshot_file(s)))
-            continue;  // a link to a file of fields.h5.d (listed above when it is there)
-          double t = 0.0;
-          std::vector<char> image;
-          try {  // reading the group: a failure leaves it out (it cannot be read)
-            H5Handle g(H5Gopen2(f.id, s.c_str(), H5P_DEFAULT), H5Gclose, "open " + s);
-            t = read_attr(g.id, "time");
-            if (after(t, keep_until)) continue;
-            if (run_id_.empty()) run_id_ = new_run_id();
-            image = file_image(s, [&](hid_t out) {
-              write_attr(out, "time", t);
-              write_string_attr(out, "run", run_id_);
-              for (const auto& m : children(g.id))
-                if (H5Ocopy(g.id, m.c_str(), out, m.c_str(), H5P_DEFAULT, H5P_DEFAULT) < 0)
-                  throw std::runtime_error("HDF5: cannot copy " + s + "/" + m + " of " + file +
-                                           hdf5_error_text());
-            });
-          } catch (const std::runtime_error&) {
-            lost_groups.push_back(s + " (a group in fields.h5) cannot be read");
-            H5Eclear2(H5E_DEFAULT);
-            continue;
-          }
-          // writing it: a failure (a full disk) stops the restart with fields.h5 untouched
-          const std::string to = sdir + "/" + snapshot_file(s);
-          check_room_for(to, image.size(), "copying snapshot " + s + " of fields.h5");
-          write_file_atomic(to, image.data(), image.size());
-          found[s] = t;
-          file_run[s] = run_id_;
-          listed.insert(s);
-        }
-        // A readable index names the run's snapshots: a file it does not list is a write the
-        // run did not finish (after the checkpoint) or a copy placed there (an independent
-        // run copied step_000001.h5 to step_000007.h5: it was taken as a snapshot).
-        for (auto it = found.begin(); it != found.end();)
-          it = listed.count(it->first) ? std::next(it) : found.erase(it);
-        // listed, but without a file (a run directory moved without its fields.h5.d)
-        std::vector<std::string> missing;
-        for (const auto& l : listed)
-          if (!found.count(l) &&
-              std::find(unreadable.begin(), unreadable.end(), l) == unreadable.end())
-            missing.push_back(l);
-        if (!missing.empty() && missing.size() == listed.size())
-          throw std::runtime_error(
-              "'" + file + "' lists " + std::to_string(listed.size()) +
-              " snapshots and '" + sdir + "' holds none of their files (a run directory moved "
-              "without it?); allowed: fields.h5.d back beside fields.h5, or fields.h5 moved "
-              "away to restart with a new field output");
-        for (const auto& l : missing) lost_groups.push_back(l + " is listed but has no file");
-        }
-      }
-    }
-    if (!expected_id.empty() && run_id_.empty()) run_id_ = expected_id;
-    // files of another run (copied in): not this run's snapshots, set aside, not removed
-    for (auto it = found.begin(); it != found.end();) {
-      if (!run_id_.empty() && !file_run[it->first].empty() && file_run[it->first] != run_id_) {
-        std::error_code ec;
-        fs::rename(sdir + "/" + snapshot_file(it->first),
-                   sdir + "/" + snapshot_file(it->first) + ".other_run", ec);
-        lost_groups.push_back(it->first + " is another run's (kept as " +
-                              snapshot_file(it->first) + ".other_run)");
-        it = found.erase(it);
-      } else {
-        ++it;
-      }
-    }
-    if (found.empty() && unreadable.empty() && !fs::exists(file))
-      lost_groups.push_back("no snapshot of the earlier part is there (neither fields.h5 nor "
-                            "its files): the field output starts again with this part");
-    if (run_id_.empty())  // no index (lost, or older): the kept files' id, else a new one
-      for (const auto& [s, t] : found)
-        if (!after(t, keep_until) && !file_run[s].empty()) {
-          run_id_ = file_run[s];
+    scan_snapshot_files(sdir, fapl.id, scan);
+    read_index(file, sdir, fapl.id, keep_until, expected_id, run_id_, scan);
+    if (run_id_.empty()) run_id_ = expected_id;
+    if (run_id_.empty())  // no index (lost, or older) and no checkpoint id: the files' id
+      for (const auto& [s, t] : scan.found)
+        if (!after(t, keep_until) && !scan.file_run[s].empty()) {
+          run_id_ = scan.file_run[s];
           break;
         }
-    for (const auto& [s, t] : found)
+    set_aside_other_runs(sdir, run_id_, scan);
+    for (const auto& [s, t] : scan.found)
       if (!after(t, keep_until)) kept.emplace_back(s, t);
     std::sort(kept.begin(), kept.end(),
               [](const auto& a, const auto& b) { return a.second < b.second; });
+  } else if (keep_until >= 0.0) {
+    scan.notes.push_back("no snapshot of the earlier part is there (neither fields.h5 nor its "
+                         "files): the field output starts again with this part");
   }
+  const std::vector<std::string>& unreadable = scan.unreadable;
   if (run_id_.empty()) run_id_ = new_run_id();
   for (const auto& [s, t] : kept) names_.push_back(s);
   // The new index first, then the files it does not list go: a failed write leaves the old
@@ -880,12 +905,12 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until,
     if (is_run_file(n) && !keep_files.count(n) && !(keep_until >= 0.0 && ends_with(n, ".broken")))
       fs::remove(e.path());
   }
-  if (!unreadable.empty() || !lost_groups.empty()) {
+  if (!unreadable.empty() || !scan.notes.empty()) {
     std::string items;
     for (const auto& s : unreadable)
       items += (items.empty() ? "" : "; ") + s + " cannot be read (kept as " + snapshot_file(s) +
                ".broken)";
-    for (const auto& s : lost_groups) items += (items.empty() ? "" : "; ") + s;
+    for (const auto& s : scan.notes) items += (items.empty() ? "" : "; ") + s;
     std::cerr << "granflow: note: the field output in " << dir << " at the restart: " << items
               << "; fields.h5 lists the " << kept.size() << " snapshots up to the checkpoint\n";
   }
