@@ -562,7 +562,7 @@ bool is_snapshot_name(const std::string& f) {
 // that could not be read at a restart (.broken), the owner mark
 bool is_run_file(const std::string& f) {
   if (f == kOwnerFile || is_snapshot_name(f)) return true;
-  for (const char* tail : {".tmp", ".broken"})
+  for (const char* tail : {".tmp", ".broken", ".duplicate", ".other_run"})
     if (ends_with(f, tail) && is_snapshot_name(f.substr(0, f.size() - std::strlen(tail))))
       return true;
   return false;
@@ -645,12 +645,15 @@ void check_snapshot_dir(const std::string& dir, const std::string& sdir, bool ta
   probe_writable(sdir);
   if (!link) return;
   const fs::path target = fs::canonical(sdir, ec), me = fs::canonical(dir, ec);
-  const fs::path holder = target.parent_path();
-  if (target.filename() == kSnapshotDir && fs::exists(holder / "run.json", ec) &&
-      !fs::equivalent(holder, me, ec))
-    throw std::runtime_error("'" + sdir + "' links to '" + target.string() +
-                             "', the field snapshots of the run directory '" + holder.string() +
-                             "'; allowed: a link to a directory of this run's own");
+  for (fs::path p = target; !p.empty() && p != p.parent_path(); p = p.parent_path()) {
+    const fs::path holder = p.parent_path();  // into another run's fields.h5.d, or below it
+    if (p.filename() == kSnapshotDir && fs::exists(holder / "run.json", ec) &&
+        !fs::equivalent(holder, me, ec))
+      throw std::runtime_error("'" + sdir + "' links to '" + target.string() +
+                               "', inside the field snapshots of the run directory '" +
+                               holder.string() + "'; allowed: a link to a directory of this "
+                               "run's own");
+  }
   if (take && g_snapshot_lock_path != target.string()) {
     if (g_snapshot_lock_fd >= 0) ::close(g_snapshot_lock_fd);
     g_snapshot_lock_fd = ::open(target.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
@@ -677,8 +680,8 @@ void check_snapshot_dir(const std::string& dir, const std::string& sdir, bool ta
         (fs::exists(owner, ec) ? "the run in '" + owner + "'"
                                : "a run once in '" + owner + "' (no longer there)") +
         ": two runs cannot share it (a copy of a run directory copies the link). Allowed: a "
-        "link to a directory of this run's own; if that run was moved here, remove '" + mark +
-        "'");
+        "link to a directory of this run's own (for a copy: replace the link by a directory, or "
+        "copy with cp -rL); only if that run was moved here, remove '" + mark + "'");
   if (take && !mine) write_file_atomic(mark, me.string() + "\n");
 }
 
@@ -713,6 +716,7 @@ struct SnapshotScan {
   std::map<std::string, std::string> file_run;  // name -> the file's run id ("" before ids)
   std::vector<std::string> unreadable;          // files to set aside as .broken
   std::vector<std::string> notes;               // what the note at the restart says
+  std::set<std::string> unlisted;  // files a readable index does not list
 };
 
 // 1. The snapshot files in fields.h5.d, each with its time and run id.
@@ -776,7 +780,10 @@ void convert_group(hid_t index, const std::string& s, const std::string& file,
 // stops the restart.
 void read_index(const std::string& file, const std::string& sdir, hid_t fapl, double keep_until,
                 const std::string& expected_id, std::string& run_id, SnapshotScan& scan) {
-  if (!std::filesystem::exists(file)) return;
+  if (!std::filesystem::exists(file)) {
+    if (!scan.found.empty()) scan.notes.push_back("fields.h5 is missing: rebuilt from the files");
+    return;
+  }
   const hid_t opened = H5Fopen(file.c_str(), H5F_ACC_RDONLY, fapl);
   if (opened < 0) {
     const std::string why = hdf5_error_text();
@@ -785,6 +792,7 @@ void read_index(const std::string& file, const std::string& sdir, hid_t fapl, do
           "cannot read '" + file + "'" + why + " and '" + sdir +
           "' holds no snapshot files, so the snapshots before the checkpoint cannot be kept; "
           "allowed: a readable fields.h5, or move it away to restart with a new field output");
+    scan.notes.push_back("fields.h5 cannot be read" + why + ": rebuilt from the files");
     return;
   }
   H5Handle f(opened, H5Fclose, "open " + file);
@@ -807,22 +815,57 @@ void read_index(const std::string& file, const std::string& sdir, hid_t fapl, do
     else if (info.type == H5L_TYPE_HARD && is_snapshot_name(snapshot_file(s)))
       convert_group(f.id, s, file, sdir, keep_until, run_id, scan, listed);
   }
-  // a file the index does not list is a write the run did not finish (after the checkpoint) or
-  // a copy placed there (an independent run copied step_000001.h5 to step_000007.h5: it was
-  // taken as a second snapshot at 0.05 s)
-  for (auto it = scan.found.begin(); it != scan.found.end();)
-    it = listed.count(it->first) ? std::next(it) : scan.found.erase(it);
+  // a file the index does not list: a write the run did not finish (after the checkpoint, cut
+  // back anyway), a copy placed there (an independent run copied step_000001.h5 to
+  // step_000099.h5: it was taken as a second snapshot at 0.05 s; one_per_time sets it aside),
+  // or a snapshot of the run put back by hand (it was deleted without a word: taken back)
+  for (const auto& [name, t] : scan.found)
+    if (!listed.count(name)) scan.unlisted.insert(name);
   std::vector<std::string> missing;
   for (const auto& l : listed)
     if (!scan.found.count(l) &&
         std::find(scan.unreadable.begin(), scan.unreadable.end(), l) == scan.unreadable.end())
       missing.push_back(l);
-  if (!missing.empty() && missing.size() == listed.size())
+  if (!missing.empty() && missing.size() == listed.size() && scan.found.empty()) {
+    std::error_code ec;  // the empty directory the start made (a fields.h5.d moved back in
+    if (!std::filesystem::is_symlink(sdir, ec) && std::filesystem::is_empty(sdir, ec))
+      std::filesystem::remove(sdir, ec);  // would nest inside it)
     throw std::runtime_error(
         "'" + file + "' lists " + std::to_string(listed.size()) + " snapshots and '" + sdir +
         "' holds none of their files (a run directory moved without it?); allowed: fields.h5.d "
         "back beside fields.h5, or fields.h5 moved away to restart with a new field output");
+  }
   for (const auto& l : missing) scan.notes.push_back(l + " is listed but has no file");
+}
+
+// 4. One snapshot per output time: a file copied over another (an independent run: times
+// 0, 0.05, 0.05, 0 and 0.1, 0.15 lost, without a word) or a copy beside the original. The one
+// the index lists, else the lowest number, is kept; the others are set aside as .duplicate.
+// An unlisted file whose time is new is a snapshot of the run put back: taken, and said.
+void one_per_time(const std::string& sdir, SnapshotScan& scan) {
+  std::vector<std::pair<double, std::string>> order;
+  for (const auto& [s, t] : scan.found) order.emplace_back(t, s);
+  std::sort(order.begin(), order.end(), [&](const auto& a, const auto& b) {
+    if (a.first != b.first) return a.first < b.first;
+    const bool la = !scan.unlisted.count(a.second), lb = !scan.unlisted.count(b.second);
+    return la != lb ? la : a.second < b.second;
+  });
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const auto& [t, s] = order[k];
+    const bool same_time =
+        k > 0 && std::abs(t - order[k - 1].first) <= 1e-9 * std::max(1.0, std::abs(t));
+    if (same_time) {
+      std::error_code ec;
+      std::filesystem::rename(sdir + "/" + snapshot_file(s),
+                              sdir + "/" + snapshot_file(s) + ".duplicate", ec);
+      scan.notes.push_back(s + " repeats the time " + params::str(t) + " s of " +
+                           order[k - 1].second + " (kept as " + snapshot_file(s) + ".duplicate)");
+      scan.found.erase(s);
+    } else if (scan.unlisted.count(s)) {
+      scan.notes.push_back(s + " (t = " + params::str(t) +
+                           " s) was not listed in fields.h5: taken back");
+    }
+  }
 }
 
 // 3. Files of another run (copied in): not this run's snapshots; set aside, not removed.
@@ -878,6 +921,11 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until,
           break;
         }
     set_aside_other_runs(sdir, run_id_, scan);
+    // (after the checkpoint: the restart writes them again)
+    for (auto it = scan.found.begin(); it != scan.found.end();)
+      it = after(it->second, keep_until) && scan.unlisted.count(it->first) ? scan.found.erase(it)
+                                                                           : std::next(it);
+    one_per_time(sdir, scan);
     for (const auto& [s, t] : scan.found)
       if (!after(t, keep_until)) kept.emplace_back(s, t);
     std::sort(kept.begin(), kept.end(),
@@ -902,7 +950,9 @@ void Hdf5FieldOutput::open(const std::string& dir, double keep_until,
   for (const auto& [s, t] : kept) keep_files.insert(snapshot_file(s));
   for (const auto& e : fs::directory_iterator(sdir)) {
     const std::string n = e.path().filename().string();
-    if (is_run_file(n) && !keep_files.count(n) && !(keep_until >= 0.0 && ends_with(n, ".broken")))
+    const bool set_aside = ends_with(n, ".broken") || ends_with(n, ".duplicate") ||
+                           ends_with(n, ".other_run");
+    if (is_run_file(n) && !keep_files.count(n) && !(keep_until >= 0.0 && set_aside))
       fs::remove(e.path());
   }
   if (!unreadable.empty() || !scan.notes.empty()) {

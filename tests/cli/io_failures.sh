@@ -105,7 +105,7 @@ head -c 100 broken/fields.h5.d/step_000006.h5 > cut && mv cut broken/fields.h5.d
 rm broken/fields.h5
 scene "$SRC/io_ndam10.xml" broken2.xml -e 's|value="io_run"|value="broken"|' \
   -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="broken/checkpoint.h5"/>&|'
-expect 0 "note: the field output in broken at the restart: step_000006 cannot be read \(kept as step_000006.h5.broken\); fields.h5 lists the 6 snapshots up to the checkpoint" broken2.xml
+expect 0 "note: the field output in broken at the restart: step_000006 cannot be read \(kept as step_000006.h5.broken\); fields.h5 is missing: rebuilt from the files; fields.h5 lists the 6 snapshots up to the checkpoint" broken2.xml
 [ -e broken/fields.h5.d/step_000006.h5.broken ] || fail "the damaged snapshot was not kept aside: $(ls broken/fields.h5.d)"
 $PY - broken <<'PYEOF' || fail "broken: the index after the restart (above)"
 import h5py, os, sys
@@ -126,10 +126,21 @@ cp broken/fields.h5.d/step_000001.h5 broken/fields.h5.d/step_000099.h5
 scene "$SRC/io_ndam10.xml" broken3.xml -e 's|value="io_run"|value="broken"|' \
   -e 's|name="End time" type="double" value="0.75"|name="End time" type="double" value="0.76"|' \
   -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="broken/checkpoint.h5"/>&|'
-expect 0 "completed at t = 0.76 s" broken3.xml
-[ -e broken/fields.h5.d/step_000099.h5 ] && fail "a file fields.h5 does not list was kept"
-$PY -c "import h5py, sys; f = h5py.File('broken/fields.h5', 'r'); t = sorted(round(float(f[s].attrs['time']), 9) for s in f); sys.exit((len(t) != 16 or len(set(t)) != 16) and f'times {t}: not 15 + the end time')" ||
-  fail "the index after the restart with a stray file"
+expect 0 "step_000099 repeats the time 0.05 s of step_000001 \(kept as step_000099.h5.duplicate\)" broken3.xml
+[ -e broken/fields.h5.d/step_000099.h5 ] && fail "a copy of a snapshot was kept as a second one"
+# a snapshot of the run put back by hand (it was deleted without a word: an independent run)
+for te in 0.77 0.78; do
+  scene "$SRC/io_ndam10.xml" broken$te.xml -e 's|value="io_run"|value="broken"|' \
+    -e "s|name=\"End time\" type=\"double\" value=\"0.75\"|name=\"End time\" type=\"double\" value=\"$te\"|" \
+    -e 's|<Parameter name="Progress"|<Parameter name="Restart from" type="string" value="broken/checkpoint.h5"/>&|'
+done
+mv broken/fields.h5.d/step_000002.h5 step_000002.backup
+expect 0 "step_000002 is listed but has no file" broken0.77.xml
+mv step_000002.backup broken/fields.h5.d/step_000002.h5
+expect 0 "step_000002 \(t = 0.1 s\) was not listed in fields.h5: taken back" broken0.78.xml
+$PY -c "import h5py, sys; f = h5py.File('broken/fields.h5', 'r'); t = sorted(round(float(f[s].attrs['time']), 9) for s in f); sys.exit((len(t) != 18 or len(set(t)) != 18 or 0.1 not in t) and f'times {t}: not 15 + 0.76, 0.77, 0.78 once each')" ||
+  fail "the index after the restarts with a stray copy and a file put back"
+
 
 # 6. a run directory of a granflow before fields.h5.d (its snapshots are groups in fields.h5):
 #    a restart copies the ones it keeps into files of fields.h5.d, each value unchanged
@@ -207,7 +218,10 @@ out=$("$study" budget linked --from 0.05 --to 0.2 2>&1) || fail "granflow-study 
 # A link into another run directory's own fields.h5.d: --overwrite replaced that run's snapshots
 mkdir -p into && ln -s "$(pwd)/broken/fields.h5.d" into/fields.h5.d
 scene "$SRC/io_ndam10.xml" into.xml -e 's|value="io_run"|value="into"|'
-expect 2 "'into/fields.h5.d' links to '[^']*broken/fields.h5.d', the field snapshots of the run directory '[^']*broken'" --overwrite into.xml
+expect 2 "'into/fields.h5.d' links to '[^']*broken/fields.h5.d', inside the field snapshots of the run directory '[^']*broken'" --overwrite into.xml
+mkdir -p broken/fields.h5.d/sub && rm into/fields.h5.d && ln -s "$(pwd)/broken/fields.h5.d/sub" into/fields.h5.d
+expect 2 "'into/fields.h5.d' links to '[^']*broken/fields.h5.d/sub', inside the field snapshots of the run directory '[^']*broken'" --check into.xml
+rmdir broken/fields.h5.d/sub
 
 # 10. Another run's fields.h5 copied over this run's before a restart: the restart took the
 #     other's list and id and deleted four of its own snapshots without a word (an independent
