@@ -411,8 +411,27 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
   // run of the same scene kept that run's rows up to the checkpoint time, joined to a
   // continuation of a different trajectory (a hostile-user run): its files start afresh.
   std::error_code ee;
-  const bool own = restart && !keep.empty() && fs::exists(dir, ee) &&
-                   fs::equivalent(fs::absolute(keep, ee).parent_path(), dir, ee);
+  bool own = restart && !keep.empty() && fs::exists(dir, ee) &&
+             fs::equivalent(fs::absolute(keep, ee).parent_path(), dir, ee);
+  // A checkpoint lying in the directory is the directory's own unless its field output's run id
+  // is none of the directory's: a checkpoint copied in from a sibling run of the scene joined
+  // that run's continuation to this directory's earlier outputs (u 0.69 m/s apart at the joint;
+  // an independent run).
+  bool sibling = false;
+  if (own && plan.same_scene) {
+    std::string ck_id;
+    try {
+      const auto c = io::read_checkpoint(keep);
+      if (c.has_text(kFieldsIdKey)) ck_id = c.text(kFieldsIdKey);
+    } catch (const std::exception&) {
+      ck_id.clear();  // check_restart reports a damaged checkpoint
+    }
+    if (!ck_id.empty()) {
+      const auto ids = io::field_run_ids(dir);
+      sibling = !ids.empty() && !ids.count(ck_id);
+      own = !sibling;
+    }
+  }
   if (plan.same_scene && own) {  // continued: the driver cuts back, keeps
     plan.continued = true;
     plan.earlier_files = earlier.files;
@@ -433,10 +452,16 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
   if (restart && plan.same_scene && !plan.remove.empty()) {
     std::string gone;
     for (const auto& p : plan.remove) gone += (gone.empty() ? "" : ", ") + fs::path(p).filename().string();
-    plan.note = "the restart's checkpoint " + params::shown(keep) + " lies outside " +
-                params::shown(dir) + ", which holds a run of this scene: its files (" + gone +
+    plan.note = "the restart's checkpoint " + params::shown(keep) +
+                (sibling ? " was written by another run of this scene (its field output's "
+                           "run id is none of the directory's), and " +
+                               params::shown(dir) + " holds this directory's own run"
+                         : " lies outside " + params::shown(dir) +
+                               ", which holds a run of this scene") +
+                ": its files (" + gone +
                 ") are replaced, not continued, since they may be another trajectory's; to "
-                "continue them, restart from the checkpoint.h5 in that directory";
+                "continue them, restart from the checkpoint.h5 " +
+                (sibling ? "that run wrote there" : "in that directory");
   }
   return plan;
 }

@@ -1149,6 +1149,33 @@ void Hdf5FieldOutput::write_xdmf() const {
   xdmf_bytes_ = text.size();
 }
 
+std::set<std::string> field_run_ids(const std::string& dir) {
+  quiet_hdf5();
+  std::set<std::string> ids;
+  const auto fapl = unlocked_access();
+  auto add = [&](const std::string& f) {
+    const hid_t h = H5Fopen(f.c_str(), H5F_ACC_RDONLY, fapl.id);
+    if (h < 0) {
+      H5Eclear2(H5E_DEFAULT);
+      return;
+    }
+    H5Handle file(h, H5Fclose, "open " + f);
+    try {
+      const std::string id = run_id_of(file.id);
+      if (!id.empty()) ids.insert(id);
+    } catch (const std::runtime_error&) {
+      H5Eclear2(H5E_DEFAULT);
+    }
+  };
+  std::error_code ec;
+  if (std::filesystem::exists(dir + "/fields.h5", ec)) add(dir + "/fields.h5");
+  const std::string sdir = dir + "/" + kSnapshotDir;
+  if (std::filesystem::is_directory(sdir, ec))
+    for (const auto& e : std::filesystem::directory_iterator(sdir, ec))
+      if (is_snapshot_name(e.path().filename().string())) add(e.path().string());
+  return ids;
+}
+
 void check_field_snapshots(const std::string& dir) {
   check_snapshot_dir(dir, dir + "/" + kSnapshotDir, false);
 }

@@ -82,14 +82,16 @@ print("summary matches wall.csv: contact %.4f s, impact peak force %.1f N/m at %
       % (tc, w["force"]["impact_peak"], w["force"]["impact_peak_time"], w["p_foot"]["impact_peak"]))
 EOF
 
-# 2. A run stopped between its output at t = 0.65 s and its checkpoint (the t = 0.6 s checkpoint
-#    of the same scene put back), restarted into the same directory to 0.7 s: wall.csv cut back
-#    to 0.6 s and continued, equal to the straight run's, and so is the summary of the series.
-nd cut_a.xml cut_a 0.6
-expect 0 "completed at t = 0.6 s" cut_a.xml
-nd cut.xml cut 0.65
-expect 0 "completed at t = 0.65 s" cut.xml
-cp cut_a/checkpoint.h5 cut/checkpoint.h5
+# 2. A run stopped between its output at t = 0.65 s and its checkpoint (the run's own t = 0.6 s
+#    checkpoint put back), restarted into the same directory to 0.7 s: wall.csv cut back to
+#    0.6 s and continued, equal to the straight run's, and so is the summary of the series.
+nd cut.xml cut 0.6
+expect 0 "completed at t = 0.6 s" cut.xml
+cp cut/checkpoint.h5 ck_0.6.h5
+nd cut_on.xml cut 0.65 \
+   -e 's|<Parameter name="Fields"|<Parameter name="Restart from" type="string" value="cut/checkpoint.h5"/>&|'
+expect 0 "completed at t = 0.65 s" cut_on.xml
+cp ck_0.6.h5 cut/checkpoint.h5
 nd cut_restart.xml cut 0.7 \
    -e 's|<Parameter name="Fields"|<Parameter name="Restart from" type="string" value="cut/checkpoint.h5"/>&|'
 expect 0 "completed at t = 0.7 s" cut_restart.xml
@@ -122,7 +124,7 @@ EOF
 #     of the impact's peak): the new wall.csv holds the rows after 0.6 s only, and the summary of
 #     the series, taken from the checkpoint for the part before, is the straight run's.
 nd moved.xml moved 0.7 \
-   -e 's|<Parameter name="Fields"|<Parameter name="Restart from" type="string" value="cut_a/checkpoint.h5"/>&|'
+   -e 's|<Parameter name="Fields"|<Parameter name="Restart from" type="string" value="ck_0.6.h5"/>&|'
 expect 0 "completed at t = 0.7 s" moved.xml
 python3 - <<'EOF2' || fail "a restart into another directory does not summarise the whole run's wall load"
 import json

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <fstream>
 #include <stdexcept>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -163,6 +164,10 @@ Checkpoint read_checkpoint(const std::string& file);
 /// FNV-1a (64 bit) over the keys and the bytes of the values of all entries: detects truncation
 /// and flipped bytes; not a cryptographic hash.
 std::uint64_t checksum(const Checkpoint& c);
+
+/// The run ids of the field output in run directory `dir` (fields.h5 and its snapshot files;
+/// empty when there is none or the files predate ids).
+std::set<std::string> field_run_ids(const std::string& dir);
 
 /// Refuses (std::runtime_error naming it) a run directory `dir` whose fields.h5.d is a link to
 /// a directory that does not exist or that holds another run's snapshots.
