@@ -426,9 +426,9 @@ DirectoryPlan plan_directory(const std::string& dir, const std::string& ours,
     } catch (const std::exception&) {
       ck_id.clear();  // check_restart reports a damaged checkpoint
     }
-    if (!ck_id.empty()) {
-      const auto ids = io::field_run_ids(dir);
-      sibling = !ids.empty() && !ids.count(ck_id);
+    bool any_id = false;
+    if (!ck_id.empty() && !io::field_output_has_id(dir, ck_id, any_id)) {
+      sibling = any_id;
       own = !sibling;
     }
   }
@@ -503,15 +503,9 @@ void probe_directory(const std::string& dir) {
     throw params::InputError(param + "the run cannot create it (" + e.code().message() +
                              "); allowed: a directory that can be created and written");
   }
-  const fs::path probe = fs::path(dir) / (".granflow_check_" + std::to_string(::getpid()));
-  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-  const int err = errno;
-  if (fd >= 0) {
-    ::close(fd);
-    fs::remove(probe, ec);
-  }
+  const int err = io::write_probe(dir);
   undo();
-  if (fd < 0)
+  if (err != 0)
     throw params::InputError(param + "the run cannot write into it (" +
                              std::error_code(err, std::generic_category()).message() +
                              "); allowed: a directory that can be created and written");

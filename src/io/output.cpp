@@ -170,6 +170,17 @@ void release_stop_reserve() {
   g_reserve_dir.clear();
 }
 
+int write_probe(const std::string& dir) {
+  const std::string probe = dir + "/.granflow_check_" + std::to_string(::getpid());
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  const int err = fd < 0 ? errno : 0;
+  if (fd >= 0) {
+    ::close(fd);
+    ::unlink(probe.c_str());
+  }
+  return err;
+}
+
 void write_file_atomic(const std::string& file, const void* data, std::size_t size) {
   const std::string tmp = file + ".tmp";
   errno = 0;
@@ -616,19 +627,6 @@ bool has_snapshots(const std::string& sdir) {
 int g_snapshot_lock_fd = -1;
 std::string g_snapshot_lock_path;
 
-void probe_writable(const std::string& sdir) {
-  const std::string probe = sdir + "/.granflow_probe_" + std::to_string(::getpid());
-  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-  const int err = errno;
-  if (fd >= 0) {
-    ::close(fd);
-    ::unlink(probe.c_str());
-    return;
-  }
-  throw std::runtime_error("'" + sdir + "' cannot be written (" + std::strerror(err) +
-                           "); allowed: a directory the run can write into");
-}
-
 void check_snapshot_dir(const std::string& dir, const std::string& sdir, bool take) {
   namespace fs = std::filesystem;
   std::error_code ec;
@@ -642,7 +640,9 @@ void check_snapshot_dir(const std::string& dir, const std::string& sdir, bool ta
   if (!fs::is_directory(sdir, ec))
     throw std::runtime_error("'" + sdir + "' is not a directory; allowed: a directory (or a "
                              "link to one) for the field snapshots, or none");
-  probe_writable(sdir);
+  if (const int err = write_probe(sdir))
+    throw std::runtime_error("'" + sdir + "' cannot be written (" + std::strerror(err) +
+                             "); allowed: a directory the run can write into");
   if (!link) return;
   const fs::path target = fs::canonical(sdir, ec), me = fs::canonical(dir, ec);
   for (fs::path p = target; !p.empty() && p != p.parent_path(); p = p.parent_path()) {
@@ -1149,31 +1149,36 @@ void Hdf5FieldOutput::write_xdmf() const {
   xdmf_bytes_ = text.size();
 }
 
-std::set<std::string> field_run_ids(const std::string& dir) {
+bool field_output_has_id(const std::string& dir, const std::string& id, bool& any_id) {
   quiet_hdf5();
-  std::set<std::string> ids;
+  any_id = false;
   const auto fapl = unlocked_access();
-  auto add = [&](const std::string& f) {
+  // the index first (it carries the run's id in every ordinary case), then the files, until
+  // one carries `id`
+  auto carries = [&](const std::string& f) {
     const hid_t h = H5Fopen(f.c_str(), H5F_ACC_RDONLY, fapl.id);
     if (h < 0) {
       H5Eclear2(H5E_DEFAULT);
-      return;
+      return false;
     }
     H5Handle file(h, H5Fclose, "open " + f);
     try {
-      const std::string id = run_id_of(file.id);
-      if (!id.empty()) ids.insert(id);
+      const std::string its = run_id_of(file.id);
+      any_id = any_id || !its.empty();
+      return its == id;
     } catch (const std::runtime_error&) {
       H5Eclear2(H5E_DEFAULT);
+      return false;
     }
   };
   std::error_code ec;
-  if (std::filesystem::exists(dir + "/fields.h5", ec)) add(dir + "/fields.h5");
+  if (std::filesystem::exists(dir + "/fields.h5", ec) && carries(dir + "/fields.h5")) return true;
   const std::string sdir = dir + "/" + kSnapshotDir;
   if (std::filesystem::is_directory(sdir, ec))
     for (const auto& e : std::filesystem::directory_iterator(sdir, ec))
-      if (is_snapshot_name(e.path().filename().string())) add(e.path().string());
-  return ids;
+      if (is_snapshot_name(e.path().filename().string()) && carries(e.path().string()))
+        return true;
+  return false;
 }
 
 void check_field_snapshots(const std::string& dir) {

@@ -20,7 +20,6 @@
 #include <cstdint>
 #include <fstream>
 #include <stdexcept>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -145,6 +144,9 @@ void hold_stop_reserve(const std::string& dir);
 /// Frees the held room just before the stop writes its summary.
 void release_stop_reserve();
 
+/// Creates and removes a file in `dir`: 0 when the run can write there, else the errno.
+int write_probe(const std::string& dir);
+
 /// Writes `file` atomically: the bytes go to file.tmp, which replaces `file` only once every
 /// byte is written, synced to the disk (fsync) and closed; otherwise file.tmp is removed, `file` stays as it was, and
 /// std::runtime_error names the file and the system's reason (e.g. "No space left on device").
@@ -165,9 +167,9 @@ Checkpoint read_checkpoint(const std::string& file);
 /// and flipped bytes; not a cryptographic hash.
 std::uint64_t checksum(const Checkpoint& c);
 
-/// The run ids of the field output in run directory `dir` (fields.h5 and its snapshot files;
-/// empty when there is none or the files predate ids).
-std::set<std::string> field_run_ids(const std::string& dir);
+/// Whether the field output in run directory `dir` (fields.h5, then its snapshot files) carries
+/// run id `id`; `any_id`: whether any of them carries an id at all (files before ids do not).
+bool field_output_has_id(const std::string& dir, const std::string& id, bool& any_id);
 
 /// Refuses (std::runtime_error naming it) a run directory `dir` whose fields.h5.d is a link to
 /// a directory that does not exist or that holds another run's snapshots.
