@@ -500,6 +500,13 @@ granflow_script_test(compare_layouts_no_build 2 "BUILD /nonexistent: no apps/gra
                      compare_layouts.py /nonexistent script_refusals)
 granflow_script_test(pareto_no_build 2 "BUILD /nonexistent: no apps/granflow there"
                      pareto.py /nonexistent script_refusals)
+# scripts/plug_law.py (a sweep of the plug law over layer depths): whole cells of the default
+# surface cell mass follow the law to 0.1 % (NdamCoulomb), so the sweep must print below 1 %
+# there; a depth the 6-cell box cannot hold is refused
+granflow_script_test(plug_law_whole_cells 0 "largest .error. of the sweep: 0[.][0-9]+ %"
+                     plug_law.py ${CMAKE_BINARY_DIR} plug_law_whole_cells --forms full --depths 2 3 --end 0.3)
+granflow_script_test(plug_law_depth_outside_the_box 2 "--depths: in cells, each in .0, 5."
+                     plug_law.py ${CMAKE_BINARY_DIR} plug_law_refusal --depths 6)
 granflow_script_test(find_holes_two_directories 2 "unrecognized arguments: b"
                      find_holes.py a b)
 granflow_script_test(wall_series_reversed_window 2 "'5:0': allowed: 0 <= A < B ms"
