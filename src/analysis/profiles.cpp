@@ -104,16 +104,23 @@ std::vector<Subdomain> propose_layout(const std::map<double, ProfileAt>& run, do
     if (!iv.empty() && a <= iv.back().second) iv.back().second = std::max(iv.back().second, b);
     else iv.emplace_back(a, b);
   }
-  // close 1D gaps shorter than min_length (between 2D regions and at the channel ends)
+  // close 1D gaps shorter than min_length (between 2D regions and at the channel ends). A gap
+  // of round-off is no gap: with Margin 0 the faces of neighbouring flagged cells, x_i +- dx/2,
+  // differ in the last bits (0.03 against 0.030000000000000006), and with 'Minimum length' 0
+  // each such pair made a 1D subdomain of length 6e-18 m, whose stable step of 3e-18 s stopped
+  // the run at t = 0 as diverged (an independent run); so gaps below a millionth of a cell
+  // close whatever min_length is.
+  const double tiny = 1e-6 * (x.size() > 1 ? std::abs(x[1] - x[0]) : length);
+  const double close_below = std::max(min_length, tiny);
   std::vector<std::pair<double, double>> merged;
   for (const auto& v : iv) {
-    if (!merged.empty() && v.first - merged.back().second < min_length)
-      merged.back().second = v.second;
+    if (!merged.empty() && v.first - merged.back().second < close_below)
+      merged.back().second = std::max(merged.back().second, v.second);
     else
       merged.push_back(v);
   }
-  if (!merged.empty() && merged.front().first < min_length) merged.front().first = 0.0;
-  if (!merged.empty() && length - merged.back().second < min_length) merged.back().second = length;
+  if (!merged.empty() && merged.front().first < close_below) merged.front().first = 0.0;
+  if (!merged.empty() && length - merged.back().second < close_below) merged.back().second = length;
   std::vector<Subdomain> out;
   double pos = 0.0;
   for (const auto& [a, b] : merged) {

@@ -87,6 +87,26 @@ TEST(Layout, ShortOneDGapsAreAbsorbedAndDryCellsIgnored) {
   EXPECT_EQ(lay[1].model, "1D");
 }
 
+TEST(Layout, NoMarginAndNoMinimumLengthGiveNoRoundOffSubdomains) {
+  // Margin 0 and 'Minimum length' 0 (allowed): the flagged cells' faces x_i +- dx/2 of
+  // neighbours differ in the last bits, and each such pair made a 1D subdomain of 6e-18 m (and
+  // one of 8.7e-19 m at x = 0), whose stable step of 3e-18 s stopped the run at t = 0 (an
+  // independent run). Cells of 10 mm flagged on [0, 0.06) and [0.93, 1]: exactly three parts,
+  // their ends on the cell faces to round-off.
+  auto p = uniform_profile(100, 1.0, 0.02, 1.0);
+  for (std::size_t i = 0; i < p.x.size(); ++i)
+    p.eps[i] = (p.x[i] < 0.06 || p.x[i] > 0.93) ? 1.0 : 0.01;
+  const auto lay = propose_layout({{0.5, p}}, 1.0, 0.1, 0.0, 0.0, 1e-3);
+  ASSERT_EQ(lay.size(), 3u);
+  EXPECT_EQ(lay[0].model, "2D");
+  EXPECT_EQ(lay[0].x0, 0.0);
+  EXPECT_NEAR(lay[0].x1, 0.06, 1e-12);
+  EXPECT_EQ(lay[1].model, "1D");
+  EXPECT_NEAR(lay[2].x0, 0.93, 1e-12);
+  EXPECT_EQ(lay[2].x1, 1.0);
+  for (const auto& s : lay) EXPECT_GT(s.x1 - s.x0, 0.005) << s.model << " [" << s.x0 << ", " << s.x1 << "]";
+}
+
 // --- the depth-averaged momentum budget (granflow-study budget) on analytic layers -----------
 
 namespace {
