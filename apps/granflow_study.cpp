@@ -136,8 +136,11 @@ int compare_cmd(int argc, char** argv) {
     else if (a == "--out") out = next();
     else { std::cerr << "granflow-study: unknown option '" << a << "'\n"; return usage(std::cerr, 1); }
   }
-  const auto ref = read_profiles(ref_dir + "/profiles.csv");
-  const auto test = read_profiles(test_dir + "/profiles.csv");
+  std::string ref_note, test_note;
+  const auto ref = read_profiles(ref_dir + "/profiles.csv", &ref_note);
+  const auto test = read_profiles(test_dir + "/profiles.csv", &test_note);
+  for (const std::string& n : {ref_note, test_note})
+    if (!n.empty()) std::cout << "note: " << n << "\n";
   // Runs of different channels have no common profile to compare (a 1 m chute against the 2 m
   // lab chute gave a table of errors and exit 0): their ends must agree to half a cell.
   // (start, end, widest end cell) of a run's channel from its profile points
@@ -193,7 +196,14 @@ int compare_cmd(int argc, char** argv) {
   // without a word).
   for (const std::string& dir : {ref_dir, test_dir}) {
     std::ifstream in(dir + "/summary.json");
-    if (!in) continue;  // a run directory without a summary (still running): nothing to say
+    if (!in) {  // no summary: a run still running (run.json says so), or one killed
+      std::ifstream rj(dir + "/run.json");
+      const auto r = rj ? nlohmann::json::parse(rj, nullptr, false) : nlohmann::json();
+      if (!r.is_discarded() && r.is_object() && r.value("status", std::string()) == "running")
+        std::cout << "note: " << dir << ": run.json says the run is still running (or was "
+                     "killed); its complete outputs so far are compared\n";
+      continue;
+    }
     const auto sj = nlohmann::json::parse(in, nullptr, false);
     if (sj.is_discarded() || sj.value("status", std::string("completed")) == "completed") continue;
     std::cout << "note: " << dir << " " << sj.value("status", std::string("?")) << " at t = "
@@ -288,7 +298,9 @@ int layout_cmd(int argc, char** argv) {
     throw std::runtime_error("--threshold " + granflow::params::str(threshold) + ": allowed: eps > 0");
   if (!(h_min >= 0.0))
     throw std::runtime_error("--h-min " + granflow::params::str(h_min) + ": allowed: a depth >= 0 m");
-  const auto p = read_profiles(run + "/profiles.csv");
+  std::string note;
+  const auto p = read_profiles(run + "/profiles.csv", &note);
+  if (!note.empty()) std::cout << "note: " << note << "\n";
   const auto lay = propose_layout(p, length, threshold, margin, min_length, h_min);
   std::cout << "a priori layout from " << run << " (2D where eps >= " << threshold
             << ", margin " << margin << " m):\n";

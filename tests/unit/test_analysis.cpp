@@ -8,6 +8,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <unistd.h>
 
 using namespace granflow::analysis;
 
@@ -54,6 +59,47 @@ TEST(Compare, AveragedVelocityOfALinearProfileIsItsMidpointValue) {
   auto p = uniform_profile(200, 1.0, 0.01, 0.0);
   for (std::size_t i = 0; i < p.x.size(); ++i) p.u[i] = 3.0 * p.x[i];
   EXPECT_NEAR(average_velocity(p, 0.2), 0.3, 1e-12);
+}
+
+namespace {
+// profiles.csv text in a file under the temporary directory (not the source tree)
+std::string profiles_file(const std::string& name, const std::string& text) {
+  const auto path = std::filesystem::temp_directory_path() /
+                    ("granflow_" + name + "_" + std::to_string(::getpid()) + ".csv");
+  std::ofstream(path, std::ios::binary) << text;
+  return path.string();
+}
+}  // namespace
+
+TEST(Profiles, AnOutputWrittenInPartIsLeftOutWithANote) {
+  // A run still writing its last output, or stopped inside it: granflow-study compare took
+  // the rows it found and filled the missing columns with the last one (h L2 0.631 against the
+  // true 0.070; an independent run). Two outputs of four columns on [0, 1] m:
+  const std::string head = "t,x,h,u_mean,eps,model\n";
+  const std::string out0 = "0,0.125,0.1,1,0.1,1D\n0,0.375,0.1,1,0.1,1D\n0,0.625,0.1,1,0.1,1D\n"
+                           "0,0.875,0.1,1,0.1,1D\n";
+  std::string note;
+  // whole: both outputs, no note
+  auto whole = read_profiles(profiles_file("whole", head + out0 + "0.5,0.125,0.2,2,0.1,1D\n"
+      "0.5,0.375,0.2,2,0.1,1D\n0.5,0.625,0.2,2,0.1,1D\n0.5,0.875,0.2,2,0.1,1D\n"), &note);
+  EXPECT_EQ(whole.size(), 2u);
+  EXPECT_TRUE(note.empty()) << note;
+  // the second output ends at x = 0.375 m where the first reached 0.875 m: left out
+  auto part = read_profiles(profiles_file("part", head + out0 + "0.5,0.125,0.2,2,0.1,1D\n"
+                                                      "0.5,0.375,0.2,2,0.1,1D\n"), &note);
+  ASSERT_EQ(part.size(), 1u);
+  EXPECT_EQ(part.begin()->first, 0.0);
+  EXPECT_NE(note.find("t = 0.5"), std::string::npos) << note;
+  // a row cut inside its eps field (no newline): its output is left out too
+  auto cut = read_profiles(profiles_file("cut", head + out0 + "0.5,0.125,0.2,2,0.1,1D\n"
+                                                     "0.5,0.375,0.2,2,0.0"), &note);
+  ASSERT_EQ(cut.size(), 1u);
+  EXPECT_FALSE(note.empty());
+  // a model that is neither 1D nor 2D, or a number with trailing text, is no row
+  EXPECT_THROW(read_profiles(profiles_file("model", head + "0,0.125,0.1,1,0.1,2X\n")),
+               std::runtime_error);
+  EXPECT_THROW(read_profiles(profiles_file("number", head + "0,0.125,0.1x,1,0.1,1D\n")),
+               std::runtime_error);
 }
 
 TEST(Layout, TwoDeepRegionsWidenedByTheMarginWithOneDBetween) {

@@ -20,7 +20,11 @@ struct ProfileAt {
 };
 
 /// All output times of one run: t -> profile. Throws std::runtime_error naming file and line.
-std::map<double, ProfileAt> read_profiles(const std::string& csv_file);
+/// The outputs of a run's profiles.csv. An output that the file holds only in part (a run still
+/// writing it, or stopped inside it: the last line without its newline, or the last output
+/// ending before the channel's end that the output before it reached) is left out, and `note`
+/// (when given) says so; empty otherwise.
+std::map<double, ProfileAt> read_profiles(const std::string& csv_file, std::string* note = nullptr);
 
 struct ErrorNorms {
   double max_rel = 0.0;  ///< max over flowing points of |v_t - v_r| / |v_r|
