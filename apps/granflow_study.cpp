@@ -42,6 +42,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
@@ -107,6 +108,14 @@ const ProfileAt* at_time(const std::map<double, ProfileAt>& run, double t) {
 int compare_cmd(int argc, char** argv) {
   if (argc < 4) return usage(std::cerr, 1);
   const std::string ref_dir = argv[2], test_dir = argv[3];
+  // 'compare RUN --times 0.25' took --times for the test run and said "unknown option '0.25'"
+  // (an independent run)
+  for (const std::string& d : {ref_dir, test_dir})
+    if (d.rfind("--", 0) == 0) {
+      std::cerr << "granflow-study: compare needs two run directories before its options "
+                   "(REF_RUN TEST_RUN [--times ...]); got '" << d << "' as a run\n";
+      return 1;
+    }
   std::vector<double> times;
   double h_min = kFlowingDepth, u_min = kFlowingVelocity, l = kAverageLength;
   std::string out = test_dir;
@@ -141,6 +150,33 @@ int compare_cmd(int argc, char** argv) {
   const auto test = read_profiles(test_dir + "/profiles.csv", &test_note);
   for (const std::string& n : {ref_note, test_note})
     if (!n.empty()) std::cout << "note: " << n << "\n";
+  // Runs of two scenes (another slope, material or inflow) are compared as asked, with a note:
+  // their table measures the scenes' difference, not a discretisation's (an independent run
+  // compared 45 with 50 deg without a word). The models and grids may differ: that is what
+  // compare is for.
+  {
+    auto params = [](const std::string& dir) {
+      std::ifstream in(dir + "/summary.json");
+      const auto j = in ? nlohmann::json::parse(in, nullptr, false) : nlohmann::json();
+      return (!j.is_discarded() && j.is_object() && j.contains("parameters")) ? j["parameters"]
+                                                                              : nlohmann::json();
+    };
+    const auto pr = params(ref_dir), pt = params(test_dir);
+    std::function<void(const nlohmann::json&, const nlohmann::json&, const std::string&)> diff =
+        [&](const nlohmann::json& a, const nlohmann::json& b, const std::string& name) {
+          if (a.is_object() && b.is_object()) {
+            for (const auto& [k, v] : a.items())
+              if (b.contains(k)) diff(v, b[k], name + "->" + k);
+            return;
+          }
+          if (a != b)
+            std::cout << "note: the runs' scenes differ in " << name << " (" << a.dump()
+                      << " against " << b.dump()
+                      << "): the table compares two scenes, not two discretisations\n";
+        };
+    for (const char* list : {"Channel", "Material"})
+      if (pr.contains(list) && pt.contains(list)) diff(pr[list], pt[list], list);
+  }
   // Runs of different channels have no common profile to compare (a 1 m chute against the 2 m
   // lab chute gave a table of errors and exit 0): their ends must agree to half a cell.
   // (start, end, widest end cell) of a run's channel from its profile points
@@ -273,6 +309,12 @@ int layout_cmd(int argc, char** argv) {
   double h_min = layout_wet_depth(granflow::dam::DamConfig{}.dry_depth);
   for (int i = 3; i < argc; ++i) {
     const std::string a = argv[i];
+    // an option layout does not have was asked for a number ("--out needs a decimal number")
+    if (a != "--length" && a != "--threshold" && a != "--margin" && a != "--min-length" &&
+        a != "--h-min") {
+      std::cerr << "granflow-study: unknown option '" << a << "' of layout\n";
+      return usage(std::cerr, 1);
+    }
     if (i + 1 >= argc) { std::cerr << "granflow-study: " << a << " needs a value\n"; return 1; }
     const double v = number(a, argv[++i]);
     if (a == "--length") length = v;
@@ -400,6 +442,12 @@ int budget_cmd(int argc, char** argv) {
     else if (a == "--out") out = next();
     else { std::cerr << "granflow-study: unknown option '" << a << "'\n"; return usage(std::cerr, 1); }
   }
+  // a negative time was taken as 0 without a word (an independent run)
+  for (const auto& [opt, v] : {std::pair<const char*, double>{"--from", t0}, {"--to", t1}})
+    if (v != -1e300 && v != 1e300 && !(v >= 0.0)) {
+      std::cerr << "granflow-study: " << opt << " " << v << " s: allowed: a time >= 0 s\n";
+      return 2;
+    }
   // a reversed window said only "fewer than two field snapshots" (an independent run)
   if (!(t0 < t1)) {
     std::cerr << "granflow-study: --from " << t0 << " s is not before --to " << t1
@@ -410,6 +458,11 @@ int budget_cmd(int argc, char** argv) {
   if (sum.at("model") != "N-DAM")
     throw std::runtime_error(run + " is a " + sum.at("model").get<std::string>() +
                              " run; the budget needs a full 2D (N-DAM) run");
+  // a run that stopped before its end time: its snapshots end at the stop (as compare says)
+  if (sum.is_object() && sum.value("status", std::string("completed")) != "completed")
+    std::cout << "note: " << run << " " << sum.value("status", std::string("?")) << " at t = "
+              << sum.value("final_time", 0.0) << " s (" << sum.value("reason", std::string())
+              << "): its snapshots end there\n";
   // the stretch lies on the channel: the default [0.3, 1.2] m (Setup I's steady part) is cut
   // at a shorter channel's end (the whole channel when that leaves nothing), a stretch the user
   // gives must fit

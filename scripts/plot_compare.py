@@ -51,7 +51,8 @@ for q, c in (("h", "C0"), ("u_mean", "C1")):
 ax[1, 0].set(xlabel="t [s]", ylabel="relative error",
              title=", ".join(f"{q}: {n} times exact (not drawn)" for q, n in zeros.items() if n)
              or None)
-ax[1, 0].legend(fontsize=7)
+if ax[1, 0].get_legend_handles_labels()[0]:  # (identical runs: no error to draw, no legend)
+    ax[1, 0].legend(fontsize=7)
 avg = [r for r in avg if r["rel_error"] != ""]
 ax[1, 1].plot([float(r["t"]) for r in avg], [100 * float(r["rel_error"]) for r in avg], "o-")
 ax[1, 1].set(xlabel="t [s]", ylabel="rel. error of averaged velocity [%]")
