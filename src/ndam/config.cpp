@@ -208,17 +208,20 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "mass of a partly filled Surface cell (its top side empty) in the momentum step. "
              "Full cell: NaSt2D's and the paper's; such a cell is driven by gravity over its "
              "whole volume but held by the friction of the true depth, so a layer whose depth "
-             "ends inside a cell slides ahead of its friction law (+17 % at 4.5 cells on "
-             "30/20 deg) and a thin layer on a slope below delta does not stop. Full cell and "
+             "ends inside a cell slides ahead of its friction law (5 mm cells, 30/22/33 deg: "
+             "+15 to +126 % at 0.46-4.3 cells), a viscous film flows as if as deep as its top "
+             "cell, and a thin layer on a slope below delta does not stop. Full cell and "
              "weight: the same mass, and the bed friction and the yield pressure of the "
              "column's cells loaded with the weight of the full cells, so a plug follows its "
-             "law (within 0.1 % where the depth ends on a marker row; between rows, where the "
-             "columns' marker counts differ, about 2 % with 3 or more markers per cell and "
-             "6-15 % with 1 or 2; the depth shares each marker between its two nearest "
-             "columns) and a layer below delta rests. Material share: the rows of its "
+             "law within 0.1 % where the depth ends on a marker row and a layer below delta "
+             "rests; between rows within 2.2 % up to 1.8 cells, but 9-11 % slow at 2.3-2.8 cells "
+             "(up to 60 % with Rheology->Regularisation 1e4; the depth shares each marker "
+             "between its two nearest columns). Material share: the rows of its "
              "faces weight mass and non-viscous forces by the share of the cells that holds "
-             "material (Implicit momentum only). docs/validation.md, 'The weight of the full "
-             "cells'",
+             "material (Implicit momentum only); a plug within 1.5-5 % of its law from 0.9 cells "
+             "up (-20 % at 1.4 cells with Regularisation 1e4), 14 % ahead at 0.46 cells. "
+             "docs/validation.md, 'The weight of the full "
+             "cells' and 'The plug law at any depth' (scripts/plug_law.py)",
              {"Full cell", "Full cell and weight", "Material share"});
     add_enum(*pl, "Surface pressure",
              !d.ghost_surface ? "Surface cells"
@@ -238,7 +241,9 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              {"Surface cells", "Ghost fluid", "Ghost fluid at walls"});
     add_double(*pl, "Initial depth", d.initial_depth,
                "[m] free surface: material layer z < depth at t = 0 on [Initial x0, Initial x1) "
-               "(0: the chute starts empty)",
+               "(0: the chute starts empty); the markers carry dx dz / n^2 each (n = 'Markers "
+               "per cell'), so a column's marker depth is the given depth rounded to a marker, "
+               "dz / n^2 (6.5 mm in 5 mm cells with n = 4 starts as 6.5625 mm)",
                0.0, 1e6);
     add_double(*pl, "Initial x0", d.initial_x0, "[m] start of the initial layer along the slope",
                -1e6, 1e6);
