@@ -150,10 +150,12 @@ int compare_cmd(int argc, char** argv) {
   const auto test = read_profiles(test_dir + "/profiles.csv", &test_note);
   for (const std::string& n : {ref_note, test_note})
     if (!n.empty()) std::cout << "note: " << n << "\n";
-  // Runs of two scenes (another slope, material or inflow) are compared as asked, with a note:
-  // their table measures the scenes' difference, not a discretisation's (an independent run
-  // compared 45 with 50 deg without a word). The models and grids may differ: that is what
-  // compare is for.
+  // Runs of two scenes (another slope, material, inflow or initial condition) are compared as
+  // asked, with a note: their table measures the scenes' difference, not a discretisation's (an
+  // independent run compared 45 with 50 deg without a word). The models and grids may differ:
+  // that is what compare is for. (Printed after the channel check below, which refuses runs of
+  // two channels outright.)
+  std::vector<std::string> scene_notes;
   {
     auto params = [](const std::string& dir) {
       std::ifstream in(dir + "/summary.json");
@@ -165,18 +167,30 @@ int compare_cmd(int argc, char** argv) {
     std::function<void(const nlohmann::json&, const nlohmann::json&, const std::string&)> diff =
         [&](const nlohmann::json& a, const nlohmann::json& b, const std::string& name) {
           if (a.is_object() && b.is_object()) {
-            for (const auto& [k, v] : a.items())
+            for (const auto& [k, v] : a.items()) {
+              // a series file is named by its path: the same data elsewhere is the same scene
+              if (k == "Inflow series file") continue;
               if (b.contains(k)) diff(v, b[k], name + "->" + k);
+              else scene_notes.push_back(name + "->" + k + " is set in " + ref_dir + " only");
+            }
+            for (const auto& [k, v] : b.items())
+              if (!a.contains(k) && k != "Inflow series file")
+                scene_notes.push_back(name + "->" + k + " is set in " + test_dir + " only");
             return;
           }
           if (a != b)
-            std::cout << "note: the runs' scenes differ in " << name << " (" << a.dump()
-                      << " against " << b.dump()
-                      << "): the table compares two scenes, not two discretisations\n";
+            scene_notes.push_back("the runs' scenes differ in " + name + " (" + a.dump() +
+                                  " against " + b.dump() + ")");
         };
-    for (const char* list : {"Channel", "Material"})
+    for (const char* list : {"Channel", "Material", "Initial condition"})
       if (pr.contains(list) && pt.contains(list)) diff(pr[list], pt[list], list);
   }
+  for (const auto* run : {&ref, &test})
+    if (run->empty()) {
+      std::cerr << "granflow-study: " << (run == &ref ? ref_dir : test_dir)
+                << "/profiles.csv holds no complete output; nothing to compare\n";
+      return 2;
+    }
   // Runs of different channels have no common profile to compare (a 1 m chute against the 2 m
   // lab chute gave a table of errors and exit 0): their ends must agree to half a cell.
   // (start, end, widest end cell) of a run's channel from its profile points
@@ -196,6 +210,8 @@ int compare_cmd(int argc, char** argv) {
       return 2;
     }
   }
+  for (const auto& n : scene_notes)
+    std::cout << "note: " << n << ": the table compares two scenes, not two discretisations\n";
   // The options' ranges (an independent run: --average-length 5 on a 1 m channel divided the
   // integral over [0, 1] m by 5 m, 0 and -1 gave averages of 0 with a relative error of 0, and
   // a negative --h-min was taken).
@@ -214,9 +230,14 @@ int compare_cmd(int argc, char** argv) {
   }
   for (double t : times)
     if (!(t >= 0.0)) return refuse("--times", t, "output times >= 0 s");
-  if (times.empty())
+  if (times.empty()) {
     for (const auto& [t, p] : ref)
       if (at_time(test, t)) times.push_back(t);
+    if (times.empty()) {
+      std::cerr << "granflow-study: the runs have no output time in common; nothing to compare\n";
+      return 2;
+    }
+  }
   // every time before any file is written (a refused time left header-only CSVs behind)
   for (double t : times)
     if (!at_time(ref, t) || !at_time(test, t)) {
@@ -343,6 +364,8 @@ int layout_cmd(int argc, char** argv) {
   std::string note;
   const auto p = read_profiles(run + "/profiles.csv", &note);
   if (!note.empty()) std::cout << "note: " << note << "\n";
+  if (p.empty())
+    throw std::runtime_error(run + "/profiles.csv holds no complete output; no layout from it");
   const auto lay = propose_layout(p, length, threshold, margin, min_length, h_min);
   std::cout << "a priori layout from " << run << " (2D where eps >= " << threshold
             << ", margin " << margin << " m):\n";
@@ -482,7 +505,9 @@ int budget_cmd(int argc, char** argv) {
   ph.m_c = param(sum, {"N-DAM", "Friction regularisation"});
   ph.bed = sum.at("parameters").at("N-DAM").at("Boundaries").at("Bottom").get<std::string>();
   ph.cell_weights = cells;
-  const auto prof = read_profiles(run + "/profiles.csv");
+  std::string prof_note;
+  const auto prof = read_profiles(run + "/profiles.csv", &prof_note);
+  if (!prof_note.empty()) std::cout << "note: " << prof_note << "\n";
   const granflow::io::FieldReader fields(run + "/fields.h5");
   std::vector<ColumnIntegrals> cols;
   std::vector<double> times;
@@ -556,7 +581,9 @@ int budget_cmd(int argc, char** argv) {
     dp.k_smoothing = param(ds, {"DAM", "Earth pressure smoothing"});
     BudgetPhysics dph = ph;
     dph.tan_delta = mat.tan_delta();
-    const auto dprof = read_profiles(dam_run + "/profiles.csv");
+    std::string dprof_note;
+    const auto dprof = read_profiles(dam_run + "/profiles.csv", &dprof_note);
+    if (!dprof_note.empty()) std::cout << "note: " << dprof_note << "\n";
     std::vector<std::vector<double>> hs, us;
     std::vector<double> dt;
     double dx0 = 0.0, ddx = 0.0;

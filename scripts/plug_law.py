@@ -18,10 +18,12 @@ error at the end.
   --angles   slope/bed friction/internal friction angles in degrees (default 30/22/33)
   --forms    'Surface cell mass' values: full, weight, share (default: all three)
   --my       'Rheology->Regularisation' m_y [s] (default 100)
-  --set      any other N-DAM parameter, e.g. --set 'Surface pressure=Ghost fluid'
+  --set      any other parameter of the N-DAM list, e.g. --set 'Surface pressure=Ghost fluid'
 
-The runs go to OUTDIR/<form>_<angles>_my<m_y>_d<depth>/ (8 columns of 40, periodic, 6 cells
-high; about a second each at 5 mm). docs/validation.md ("The plug law at any depth") gives what
+The runs go to OUTDIR/<form>_<angles>_my<m_y>_d<depth>_<options>/ (40 columns, periodic, 6
+cells high; about a second each at 5 mm), <options> a digest of the other settings, so that a
+sweep with other options does not meet the runs of an earlier one. A run that fails is counted,
+and the script then exits with 1. docs/validation.md ("The plug law at any depth") gives what
 this printed on 2026-12-07.
 """
 import argparse
@@ -30,6 +32,8 @@ import math
 import os
 import subprocess
 import sys
+import hashlib
+from xml.sax.saxutils import escape as xml_escape
 from collections import defaultdict
 
 FORMS = {"full": "Full cell", "weight": "Full cell and weight", "share": "Material share"}
@@ -126,38 +130,56 @@ def main():
             ap.error("%s must be > 0 (got %g)" % (name, v))
     if any(not d > 0 or d >= 5 for d in args.depths):
         ap.error("--depths: in cells, each in (0, 5) (the box is 6 cells high)")
-    # the type of each N-DAM parameter, from the reference that granflow prints
+    # the type of each parameter of the N-DAM list (the section '### `N-DAM`' of model N-DAM in
+    # the reference that granflow prints; a name from another list would be written into N-DAM
+    # and refused there)
     ref = subprocess.run([exe, "--parameters"], capture_output=True, text=True).stdout
-    types = {}
+    types, model, section = {}, None, None
     for line in ref.splitlines():
+        if line.startswith("## Model "):
+            model = line.split("`")[1] if "`" in line else None
+        elif line.startswith("#"):
+            section = line.lstrip("#").strip().strip("`")
         cells = [c.strip() for c in line.split("|")]
-        if len(cells) > 3 and cells[1].startswith("`") and cells[1].endswith("`"):
+        if (model == "N-DAM" and section == "N-DAM" and len(cells) > 3
+                and cells[1].startswith("`") and cells[1].endswith("`")):
             types.setdefault(cells[1].strip("`"), cells[2])
+    if not types:
+        ap.error("BUILD %s: its granflow --parameters lists no N-DAM parameters" % args.build)
     extra = ""
     for item in args.set:
         name, eq, value = item.partition("=")
         if not eq or not name or not value:
             ap.error("--set '%s': NAME=VALUE" % item)
         if name not in types:
-            ap.error("--set '%s': granflow has no parameter '%s'" % (item, name))
-        extra += '\n    <Parameter name="%s" type="%s" value="%s"/>' % (name, types[name], value)
+            ap.error("--set '%s': the N-DAM list has no parameter '%s'" % (item, name))
+        extra += '\n    <Parameter name="%s" type="%s" value="%s"/>' % (
+            xml_escape(name, {'"': "&quot;"}), types[name], xml_escape(value, {'"': "&quot;"}))
+    if not args.end >= 0.05 + args.interval - 1e-12:
+        ap.error("--end %g: the law is compared from 0.05 s on; allowed: at least 0.05 s plus "
+                 "one --interval" % args.end)
+    angles = []
+    for ang in args.angles:
+        try:
+            zeta, delta, phi = (float(a) for a in ang.split("/"))
+        except ValueError:
+            ap.error("--angles '%s': ZETA/DELTA/PHI in degrees" % ang)
+        if not math.sin(math.radians(phi)) > math.tan(math.radians(delta)) or not zeta > delta:
+            ap.error("--angles '%s': a sliding plug needs sin(phi) > tan(delta) and "
+                     "zeta > delta" % ang)
+        angles.append((ang, zeta, delta, phi))
+    digest = hashlib.sha1(repr((args.cell, args.mc, args.end, args.interval,
+                                sorted(args.set))).encode()).hexdigest()[:8]
     dz = args.cell / 1000.0
     os.makedirs(args.outdir, exist_ok=True)
     print("| form | angles | m_y | depth [cells] | max error 0.05 s..end | error at end |")
     print("|---|---|---|---|---|---|")
-    worst = 0.0
+    worst, failed = 0.0, 0
     for form in args.forms:
-        for ang in args.angles:
-            try:
-                zeta, delta, phi = (float(a) for a in ang.split("/"))
-            except ValueError:
-                ap.error("--angles '%s': ZETA/DELTA/PHI in degrees" % ang)
-            if not math.sin(math.radians(phi)) > math.tan(math.radians(delta)) or not zeta > delta:
-                ap.error("--angles '%s': a sliding plug needs sin(phi) > tan(delta) and "
-                         "zeta > delta" % ang)
+        for ang, zeta, delta, phi in angles:
             for my in args.my:
                 for d in args.depths:
-                    tag = "%s_%s_my%g_d%g" % (form, ang.replace("/", "-"), my, d)
+                    tag = "%s_%s_my%g_d%g_%s" % (form, ang.replace("/", "-"), my, d, digest)
                     run = os.path.abspath(os.path.join(args.outdir, tag))
                     scene = run + ".xml"
                     with open(scene, "w") as f:
@@ -167,8 +189,10 @@ def main():
                                              end=args.end, out=run, interval=args.interval))
                     p = subprocess.run([exe, scene], capture_output=True, text=True)
                     if p.returncode != 0:
+                        failed += 1
+                        last = (p.stderr.strip().splitlines() or ["(no message)"])[-1]
                         print("| %s | %s | %g | %g | run failed (exit %d): %s | |" % (
-                            form, ang, my, d, p.returncode, p.stderr.strip().splitlines()[-1:]))
+                            form, ang, my, d, p.returncode, last))
                         continue
                     u = layer_velocity(os.path.join(run, "profiles.csv"))
                     times = [t for t in sorted(u) if t >= 0.05 - 1e-9]
@@ -179,6 +203,10 @@ def main():
                     print("| %s | %s | %g | %g | %+.2f %% (t = %.2f s) | %+.2f %% |" % (
                         form, ang, my, d, 100 * errs[t_max], t_max, 100 * errs[times[-1]]))
     print("\nlargest |error| of the sweep: %.2f %%" % (100 * worst))
+    if failed:
+        print("%d run(s) failed; the largest error is over the others" % failed)
+        return 1
+    return 0
 
 
 if __name__ == "__main__":

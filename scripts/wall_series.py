@@ -42,7 +42,13 @@ ap.add_argument("--windows", type=window_list,
                 help="A:B,... [ms] after the first contact")
 ap.add_argument("--at", type=lambda t: window_list(t, "s"), default=[],
                 help="A:B,... [s] fixed windows of the run's time")
-args = ap.parse_args()
+# a window that starts below 0 ('--at -1:0.6') was read by argparse as an option and refused
+# with "expected one argument"; join such values to their option so the range check names them
+argv = sys.argv[1:]
+for i in range(len(argv) - 1):
+    if argv[i] in ("--at", "--windows") and argv[i + 1].startswith("-") and ":" in argv[i + 1]:
+        argv[i:i + 2] = [argv[i] + "=" + argv[i + 1], ""]
+args = ap.parse_args([a for a in argv if a != ""])
 dirs, windows = args.dirs, args.windows
 for d in dirs:
     for f in ("summary.json", "wall.csv"):

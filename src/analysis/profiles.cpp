@@ -15,68 +15,97 @@ std::map<double, ProfileAt> read_profiles(const std::string& file, std::string* 
   if (!raw) throw std::runtime_error("cannot open '" + file + "'");
   std::string text((std::istreambuf_iterator<char>(raw)), std::istreambuf_iterator<char>());
   // A last line without its newline is a row still being written (granflow writes whole rows):
-  // it is left out, with the output it belongs to (below). Taken, a row cut inside its eps field
-  // passed as a point, and the output's missing columns were filled by interpolation's end
-  // value (granflow-study compare of a live run: h L2 0.631 against 0.070; an independent run).
-  bool cut_row = false;
+  // it is left out, and with it the output it belongs to when that output is the last one
+  // read (below); the first row of a next output, cut, leaves the output before it whole.
+  // Taken, a row cut inside its eps field passed as a point, and the output's missing columns
+  // were filled by interpolation's end value (granflow-study compare of a live run: h L2 0.631
+  // against 0.070; an independent run).
+  std::string fragment;
   if (!text.empty() && text.back() != '\n') {
-    cut_row = true;
-    text.erase(text.find_last_of('\n') == std::string::npos ? 0 : text.find_last_of('\n') + 1);
+    const auto nl = text.find_last_of('\n');
+    const std::size_t from = nl == std::string::npos ? 0 : nl + 1;
+    fragment = text.substr(from);
+    text.erase(from);
   }
   std::istringstream in(text);
   std::string line;
   std::getline(in, line);
+  if (!line.empty() && line.back() == '\r') line.pop_back();  // (a copy with CRLF line ends)
   if (line.rfind("t,x,h,u_mean,eps,model", 0) != 0)
     throw std::runtime_error("'" + file + "' line 1: expected the header t,x,h,u_mean,eps,model");
   std::map<double, ProfileAt> out;
   int lineno = 1;
   while (std::getline(in, line)) {
     ++lineno;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
     std::istringstream ls(line);
     std::string f[6];
     for (auto& s : f) std::getline(ls, s, ',');
-    try {
-      if (f[5] != "1D" && f[5] != "2D") throw std::runtime_error("model");
+    const std::string where = "'" + file + "' line " + std::to_string(lineno) + ": ";
+    if (f[5] != "1D" && f[5] != "2D")
+      throw std::runtime_error(where + "model '" + f[5] + "' is neither 1D nor 2D (columns t,x,h,u_mean,eps,model)");
+    double v[5];
+    static const char* names[5] = {"t", "x", "h", "u_mean", "eps"};
+    for (int q = 0; q < 5; ++q) {
       std::size_t used = 0;
-      double v[5];
-      for (int q = 0; q < 5; ++q) {
+      try {
         v[q] = std::stod(f[q], &used);
-        if (used != f[q].size()) throw std::runtime_error("number");
+      } catch (const std::exception&) {
+        used = std::string::npos;
       }
-      auto& p = out[v[0]];
-      p.x.push_back(v[1]);
-      p.h.push_back(v[2]);
-      p.u.push_back(v[3]);
-      p.eps.push_back(v[4]);
-      p.model.push_back(f[5]);
+      if (used != f[q].size())
+        throw std::runtime_error(where + names[q] + " '" + f[q] + "' is not a number (columns t,x,h,u_mean,eps,model)");
+    }
+    auto& p = out[v[0]];
+    p.x.push_back(v[1]);
+    p.h.push_back(v[2]);
+    p.u.push_back(v[3]);
+    p.eps.push_back(v[4]);
+    p.model.push_back(f[5]);
+  }
+  if (out.empty()) return out;
+  // The last output is incomplete when the cut row was one of it (its t, read up to the first
+  // comma, is the output's time; a fragment without a comma cannot say) or when it ends before
+  // the channel's end that the output before it reached. The ends are the last centre plus half
+  // the last cell, so that a dynamic layout whose last part changes between a 2D and a 1D grid
+  // of another cell size keeps its outputs (rows are written in x from the channel's start).
+  const auto last = std::prev(out.end());
+  bool cut_last = false;
+  if (const auto comma = fragment.find(','); comma != std::string::npos) {
+    std::size_t used = 0;
+    try {
+      const double tf = std::stod(fragment.substr(0, comma), &used);
+      cut_last = used == comma && tf == last->first;
     } catch (const std::exception&) {
-      throw std::runtime_error("'" + file + "' line " + std::to_string(lineno) +
-                               ": not t,x,h,u_mean,eps,model");
     }
   }
-  // The last output is incomplete when its row was cut or when it ends before the channel's end
-  // that the output before it reached (rows are written in x from the start of the channel).
-  if (!out.empty()) {
-    const auto last = std::prev(out.end());
-    const double x_last = last->second.x.empty() ? 0.0 : last->second.x.back();
-    bool short_output = false;
-    if (out.size() >= 2) {
-      const auto& before = std::prev(last)->second;
-      const std::size_t n = before.x.size();
-      const double cell = n >= 2 ? before.x[n - 1] - before.x[n - 2] : 0.0;
-      short_output = !before.x.empty() && x_last < before.x.back() - 0.5 * std::abs(cell);
+  auto channel_end = [](const ProfileAt& p) {
+    const std::size_t n = p.x.size();
+    return n == 0 ? 0.0 : p.x[n - 1] + (n >= 2 ? 0.5 * (p.x[n - 1] - p.x[n - 2]) : 0.0);
+  };
+  auto last_cell = [](const ProfileAt& p) {
+    const std::size_t n = p.x.size();
+    return n >= 2 ? p.x[n - 1] - p.x[n - 2] : 0.0;
+  };
+  bool short_output = false;
+  if (out.size() >= 2) {
+    const auto& before = std::prev(last)->second;
+    const double tol = 0.5 * std::min(last_cell(before), last->second.x.size() >= 2
+                                                             ? last_cell(last->second)
+                                                             : last_cell(before));
+    short_output = channel_end(last->second) < channel_end(before) - tol;
+  }
+  if (cut_last || short_output) {
+    if (note) {
+      std::ostringstream m;
+      m << "'" << file << "': its last output (t = " << last->first << " s) is incomplete ("
+        << last->second.x.size() << " rows, ending at x = "
+        << (last->second.x.empty() ? 0.0 : last->second.x.back())
+        << " m; a run still writing it, or stopped inside it): left out";
+      *note = m.str();
     }
-    if (cut_row || short_output) {
-      if (note) {
-        std::ostringstream m;
-        m << "'" << file << "': its last output (t = " << last->first << " s) is incomplete ("
-          << last->second.x.size() << " rows, ending at x = " << x_last
-          << " m; a run still writing it, or stopped inside it): left out";
-        *note = m.str();
-      }
-      out.erase(last);
-    }
+    out.erase(last);
   }
   return out;
 }
@@ -147,14 +176,15 @@ std::vector<Subdomain> propose_layout(const std::map<double, ProfileAt>& run, do
     if (!iv.empty() && a <= iv.back().second) iv.back().second = std::max(iv.back().second, b);
     else iv.emplace_back(a, b);
   }
-  // close 1D gaps shorter than min_length (between 2D regions and at the channel ends). A gap
-  // of round-off is no gap: with Margin 0 the faces of neighbouring flagged cells, x_i +- dx/2,
-  // differ in the last bits (0.03 against 0.030000000000000006), and with 'Minimum length' 0
-  // each such pair made a 1D subdomain of length 6e-18 m, whose stable step of 3e-18 s stopped
-  // the run at t = 0 as diverged (an independent run); so gaps below a millionth of a cell
-  // close whatever min_length is.
-  const double tiny = 1e-6 * (x.size() > 1 ? std::abs(x[1] - x[0]) : length);
-  const double close_below = std::max(min_length, tiny);
+  // close 1D gaps shorter than min_length (between 2D regions and at the channel ends), and
+  // shorter than one cell whatever min_length is: with Margin 0 the faces of neighbouring
+  // flagged cells, x_i +- dx/2, differ in the last bits (0.03 against 0.030000000000000006),
+  // and with 'Minimum length' 0 each such pair made a 1D subdomain of 6e-18 m, whose stable
+  // step of 3e-18 s stopped the run at t = 0 as diverged (an independent run); a margin that is
+  // no multiple of half a cell left gaps of 2e-7 m the same way (a review). A 1D part holds at
+  // least one cell of the profile's grid.
+  const double cell = x.size() > 1 ? std::abs(x[1] - x[0]) : length;
+  const double close_below = std::max(min_length, cell * (1.0 - 1e-9));
   std::vector<std::pair<double, double>> merged;
   for (const auto& v : iv) {
     if (!merged.empty() && v.first - merged.back().second < close_below)

@@ -218,8 +218,9 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "(up to 60 % with Rheology->Regularisation 1e4; the depth shares each marker "
              "between its two nearest columns). Material share: the rows of its "
              "faces weight mass and non-viscous forces by the share of the cells that holds "
-             "material (Implicit momentum only); a plug within 1.5-5 % of its law from 0.9 cells "
-             "up (-20 % at 1.4 cells with Regularisation 1e4), 14 % ahead at 0.46 cells. "
+             "material (Implicit momentum only); a plug within 5.1 % of its law from 0.9 cells "
+             "up (-20 % at 1.4 and -5.8 % at 2.3 cells with Regularisation 1e4), 14 % ahead "
+             "at 0.46 cells. "
              "docs/validation.md, 'The weight of the full "
              "cells' and 'The plug law at any depth' (scripts/plug_law.py)",
              {"Full cell", "Full cell and weight", "Material share"});
@@ -242,8 +243,10 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
     add_double(*pl, "Initial depth", d.initial_depth,
                "[m] free surface: material layer z < depth at t = 0 on [Initial x0, Initial x1) "
                "(0: the chute starts empty); the markers carry dx dz / n^2 each (n = 'Markers "
-               "per cell'), so a column's marker depth is the given depth rounded to a marker, "
-               "dz / n^2 (6.5 mm in 5 mm cells with n = 4 starts as 6.5625 mm)",
+               "per cell') and those of a partly covered row are shared out over the columns: "
+               "the layer's mean depth is the given one, a column's differs from it by less "
+               "than a marker, dz / n^2 (6.5 mm in 5 mm cells with n = 4: columns of 6.25 and "
+               "6.5625 mm)",
                0.0, 1e6);
     add_double(*pl, "Initial x0", d.initial_x0, "[m] start of the initial layer along the slope",
                -1e6, 1e6);

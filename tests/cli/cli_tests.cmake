@@ -527,6 +527,9 @@ granflow_script_test(wall_series_reversed_window 2 "'5:0': allowed: 0 <= A < B m
                      wall_series.py a --windows 5:0)
 granflow_script_test(wall_series_reversed_fixed_window 2 "'0.8:0.7': allowed: 0 <= A < B s"
                      wall_series.py a --at 0.8:0.7)
+# a window starting below 0 was taken by argparse for an option ("expected one argument")
+granflow_script_test(wall_series_negative_fixed_window 2 "'-1:0.6': allowed: 0 <= A < B s"
+                     wall_series.py a --at -1:0.6)
 # fixed windows on a series whose means are known exactly (tests/cli/wall_series_ramp: rows
 # at t = 0.1 .. 0.4 s with force 10 .. 40 N/m, each holding over the step it ends): [0.15, 0.35]
 # s takes 20, 30 and 40 N/m for 0.05, 0.1 and 0.05 s, a mean of 30; [0.3, 0.6] s has rows only

@@ -62,44 +62,73 @@ TEST(Compare, AveragedVelocityOfALinearProfileIsItsMidpointValue) {
 }
 
 namespace {
-// profiles.csv text in a file under the temporary directory (not the source tree)
-std::string profiles_file(const std::string& name, const std::string& text) {
+// read_profiles of a profiles.csv text written to a file under the temporary directory (not the
+// source tree), removed again
+std::map<double, ProfileAt> read_text(const std::string& name, const std::string& text,
+                                      std::string* note = nullptr) {
   const auto path = std::filesystem::temp_directory_path() /
                     ("granflow_" + name + "_" + std::to_string(::getpid()) + ".csv");
   std::ofstream(path, std::ios::binary) << text;
-  return path.string();
+  struct Remove {
+    std::filesystem::path p;
+    ~Remove() { std::filesystem::remove(p); }
+  } remove{path};
+  return read_profiles(path.string(), note);
 }
 }  // namespace
 
 TEST(Profiles, AnOutputWrittenInPartIsLeftOutWithANote) {
   // A run still writing its last output, or stopped inside it: granflow-study compare took
   // the rows it found and filled the missing columns with the last one (h L2 0.631 against the
-  // true 0.070; an independent run). Two outputs of four columns on [0, 1] m:
+  // true 0.070; an independent run). Outputs of four columns on [0, 1] m:
   const std::string head = "t,x,h,u_mean,eps,model\n";
-  const std::string out0 = "0,0.125,0.1,1,0.1,1D\n0,0.375,0.1,1,0.1,1D\n0,0.625,0.1,1,0.1,1D\n"
-                           "0,0.875,0.1,1,0.1,1D\n";
+  auto output = [](const std::string& t) {
+    std::string o;
+    for (const char* x : {"0.125", "0.375", "0.625", "0.875"})
+      o += t + "," + x + ",0.1,1,0.1,1D\n";
+    return o;
+  };
   std::string note;
   // whole: both outputs, no note
-  auto whole = read_profiles(profiles_file("whole", head + out0 + "0.5,0.125,0.2,2,0.1,1D\n"
-      "0.5,0.375,0.2,2,0.1,1D\n0.5,0.625,0.2,2,0.1,1D\n0.5,0.875,0.2,2,0.1,1D\n"), &note);
+  auto whole = read_text("whole", head + output("0") + output("0.5"), &note);
   EXPECT_EQ(whole.size(), 2u);
   EXPECT_TRUE(note.empty()) << note;
   // the second output ends at x = 0.375 m where the first reached 0.875 m: left out
-  auto part = read_profiles(profiles_file("part", head + out0 + "0.5,0.125,0.2,2,0.1,1D\n"
-                                                      "0.5,0.375,0.2,2,0.1,1D\n"), &note);
+  auto part = read_text("part", head + output("0") + "0.5,0.125,0.2,2,0.1,1D\n"
+                                                      "0.5,0.375,0.2,2,0.1,1D\n", &note);
   ASSERT_EQ(part.size(), 1u);
   EXPECT_EQ(part.begin()->first, 0.0);
-  EXPECT_NE(note.find("t = 0.5"), std::string::npos) << note;
-  // a row cut inside its eps field (no newline): its output is left out too
-  auto cut = read_profiles(profiles_file("cut", head + out0 + "0.5,0.125,0.2,2,0.1,1D\n"
-                                                     "0.5,0.375,0.2,2,0.0"), &note);
+  EXPECT_NE(note.find("t = 0.5 s"), std::string::npos) << note;
+  // a row of the last output cut inside its eps field (no newline): that output is left out
+  auto cut = read_text("cut", head + output("0") + "0.5,0.125,0.2,2,0.1,1D\n0.5,0.375,0.2,2,0.0",
+                       &note);
   ASSERT_EQ(cut.size(), 1u);
   EXPECT_FALSE(note.empty());
+  // the first row of a next output cut: the output before it is whole and stays (a review:
+  // it was dropped)
+  auto next = read_text("next", head + output("0") + output("0.5") + "1,0.125,0.1", &note);
+  EXPECT_EQ(next.size(), 2u);
+  EXPECT_TRUE(note.empty()) << note;
+  // the only output cut: nothing complete is left
+  auto only = read_text("only", head + "0,0.125,0.1,1,0.1,1D\n0,0.375,0.1", &note);
+  EXPECT_TRUE(only.empty());
+  EXPECT_FALSE(note.empty());
+  // a dynamic layout whose last part changes grid between outputs: the first output ends in
+  // 0.05 m cells at 0.975 m, the second in 0.25 m cells at 0.875 m; both reach x = 1 m and stay
+  // (a review: the second was dropped, its last centre lying before the first's)
+  auto regrid = read_text("regrid", head +
+      "0,0.125,0.1,1,0.1,1D\n0,0.375,0.1,1,0.1,1D\n0,0.625,0.1,1,0.1,1D\n"
+      "0,0.775,0.1,1,0.1,2D\n0,0.825,0.1,1,0.1,2D\n0,0.875,0.1,1,0.1,2D\n"
+      "0,0.925,0.1,1,0.1,2D\n0,0.975,0.1,1,0.1,2D\n" + output("0.5"), &note);
+  EXPECT_EQ(regrid.size(), 2u);
+  EXPECT_TRUE(note.empty()) << note;
+  // CRLF line ends (a copy through another system) read as LF
+  std::string crlf = head + output("0");
+  for (std::size_t q = 0; (q = crlf.find('\n', q)) != std::string::npos; q += 2) crlf.insert(q, "\r");
+  EXPECT_EQ(read_text("crlf", crlf).size(), 1u);
   // a model that is neither 1D nor 2D, or a number with trailing text, is no row
-  EXPECT_THROW(read_profiles(profiles_file("model", head + "0,0.125,0.1,1,0.1,2X\n")),
-               std::runtime_error);
-  EXPECT_THROW(read_profiles(profiles_file("number", head + "0,0.125,0.1x,1,0.1,1D\n")),
-               std::runtime_error);
+  EXPECT_THROW(read_text("model", head + "0,0.125,0.1,1,0.1,2X\n"), std::runtime_error);
+  EXPECT_THROW(read_text("number", head + "0,0.125,0.1x,1,0.1,1D\n"), std::runtime_error);
 }
 
 TEST(Layout, TwoDeepRegionsWidenedByTheMarginWithOneDBetween) {
@@ -151,6 +180,15 @@ TEST(Layout, NoMarginAndNoMinimumLengthGiveNoRoundOffSubdomains) {
   EXPECT_NEAR(lay[2].x0, 0.93, 1e-12);
   EXPECT_EQ(lay[2].x1, 1.0);
   for (const auto& s : lay) EXPECT_GT(s.x1 - s.x0, 0.005) << s.model << " [" << s.x0 << ", " << s.x1 << "]";
+  // a margin that is no multiple of half a cell: cells flagged on [0, 0.06) and [0.09, 0.5)
+  // widened by 0.0149999 m leave a gap of 2e-7 m between them (a review): no 1D part there
+  for (std::size_t i = 0; i < p.x.size(); ++i)
+    p.eps[i] = (p.x[i] < 0.06 || (p.x[i] > 0.09 && p.x[i] < 0.5)) ? 1.0 : 0.01;
+  const auto lay2 = propose_layout({{0.5, p}}, 1.0, 0.1, 0.0149999, 0.0, 1e-3);
+  ASSERT_EQ(lay2.size(), 2u);
+  EXPECT_EQ(lay2[0].model, "2D");
+  EXPECT_NEAR(lay2[0].x1, 0.5149999, 1e-12);
+  EXPECT_EQ(lay2[1].model, "1D");
 }
 
 // --- the depth-averaged momentum budget (granflow-study budget) on analytic layers -----------
