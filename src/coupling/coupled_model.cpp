@@ -169,16 +169,19 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   if (d.layout == "Dynamic" && !(d.eps_lower < d.eps_threshold))
     params::fail(pl, "Lower threshold", params::str(d.eps_lower),
                  "must be below 'Shallowness threshold' = " + params::str(d.eps_threshold) +
-                     " (the hysteresis between the two keeps interfaces from flickering)");
+                     " (the hysteresis between the two keeps interfaces from flickering); "
+                     "allowed: 0 <= Lower threshold < " + params::str(d.eps_threshold));
   if (d.layout == "Dynamic" && d.hold_time < d.check_interval)
     params::fail(pl, "Hold time", params::str(d.hold_time),
                  "must be at least 'Check interval' = " + params::str(d.check_interval) +
                      " s (a column goes back to 1D only once it was calm at two checks; a "
-                     "shorter hold lets an interface flip at every check)");
+                     "shorter hold lets an interface flip at every check); allowed: Hold time >= " +
+                     params::str(d.check_interval) + " s");
   if (d.layout != "Static" && d.min_length > channel.length)
     params::fail(pl, "Minimum length", params::str(d.min_length),
                  "must not exceed the channel length L = " + params::str(channel.length) +
-                     " m (no subdomain could be built)");
+                     " m (no subdomain could be built); allowed: Minimum length <= " +
+                     params::str(channel.length) + " m");
   if (d.layout == "Static" || (d.layout == "Dynamic" && d.initial_layout == "Static")) {
     if (d.models.size() != d.interfaces.size() + 1)
       params::fail(pl, "Models", Teuchos::toString(models),
@@ -190,7 +193,9 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
         params::fail(pl, "Interfaces", params::str(d.interfaces),
                      "positions must not decrease and must lie in [0, L = " +
                          params::str(channel.length) +
-                         "] (equal neighbours give a subdomain of zero length, which is left out)");
+                         "] (equal neighbours give a subdomain of zero length, which is left "
+                         "out); allowed: 0 <= x_1 <= x_2 <= ... <= " +
+                         params::str(channel.length) + " m");
       prev = x;
     }
     if (channel.left.type == core::BoundaryType::Periodic && d.normalised(channel.length).models.size() > 1)

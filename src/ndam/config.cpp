@@ -213,16 +213,14 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "cell, and a thin layer on a slope below delta does not stop. Full cell and "
              "weight: the same mass, and the bed friction and the yield pressure of the "
              "column's cells loaded with the weight of the full cells, so a plug follows its "
-             "law within 0.1 % where the depth ends on a marker row and a layer below delta "
-             "rests; between rows within 2.2 % up to 1.8 cells, but 9-11 % slow at 2.3-2.8 cells "
-             "(up to 60 % with Rheology->Regularisation 1e4; the depth shares each marker "
-             "between its two nearest columns). Material share: the rows of its "
-             "faces weight mass and non-viscous forces by the share of the cells that holds "
-             "material (Implicit momentum only); a plug within 5.1 % of its law from 0.9 cells "
-             "up (-20 % at 1.4 and -5.8 % at 2.3 cells with Regularisation 1e4), 14 % ahead "
-             "at 0.46 cells. "
-             "docs/validation.md, 'The weight of the full "
-             "cells' and 'The plug law at any depth' (scripts/plug_law.py)",
+             "law and a layer below delta rests. Material share: the rows of its faces weight "
+             "mass and non-viscous forces by the share of the cells that holds material "
+             "(Implicit momentum only). Both take a column depth that shares each marker "
+             "between its two nearest columns and is spread over about two cells: a plug "
+             "follows its law within 1.3 % at 0.46-4.3 cells (5 and 2.5 mm, three angle sets, "
+             "Regularisation 100; with 1e4 up to 11 % slow at 2.3-2.8 cells). "
+             "docs/validation.md, 'The weight of the full cells' and 'The plug law at any "
+             "depth' (scripts/plug_law.py)",
              {"Full cell", "Full cell and weight", "Material share"});
     add_enum(*pl, "Surface pressure",
              !d.ghost_surface ? "Surface cells"

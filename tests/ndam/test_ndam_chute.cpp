@@ -414,12 +414,13 @@ TEST(NdamCoulomb, LayerEndingOnAMarkerRowRestsBelowDeltaWithTheFullCellsWeight) 
 // (13 of 16 over the box's four columns at 2.7 cells) leave one column a marker deeper, and
 // as the layer slides that marker crosses from column to column; with the count depth the
 // surface pressure jumped at each crossing (an independent run, session 26). The option's
-// column depth shares each marker between its two nearest columns (update_profile_cache), so
-// the pressure follows the crossing continuously. 2.5 mm cells, CFL 0.5:
+// column depth shares each marker between its two nearest columns and spreads the depth over
+// about two cells (update_profile_cache), so the pressure follows the crossing continuously
+// and the pattern of the partial row does not force the layer. 2.5 mm cells, CFL 0.5:
 // - plugs of 2.7, 4.3 and 6.6 cells on 30/20/30 and 40/25/35 deg: worst |u_mean / law - 1| over
-//   0.05-1 s measured 0.93 / 2.30 / 1.08 % and 1.26 / 1.80 / 0.21 % (with the count depth
-//   21.1 / 1.76 / 1.20 % and 9.12 / 1.10 / 0.73 %); asserted 3 % at every output, the noise of a
-//   marker crossing a column in a box of four (on a marker row the law holds to 0.1 %, above);
+//   0.05-1 s measured 0.09 / 0.09 / 0.09 % and 0.05 / 0.04 / 0.05 % (sharing only, session 26:
+//   0.93 / 2.30 / 1.08 % and 1.26 / 1.80 / 0.21 %; the count depth 21.1 / 1.76 / 1.20 % and
+//   9.12 / 1.10 / 0.73 %); asserted within the 1 % at every output;
 // - a layer at rest on 20/22/33 deg (m_c = 1e4 s/m) of 2.7 and 4.3 cells to 4 s: |u_mean| at
 //   most 0.256 / 0.278 mm/s against the creep bound u_c = 0.281 / 0.315 mm/s of the test above
 //   (with the count depth 1.84 / 4.74 mm/s, 6.5 and 15 times it, bursts from about 1.9 s);
@@ -437,7 +438,7 @@ TEST(NdamCoulomb, LayerBetweenMarkerRowsFollowsTheLawWithTheFullCellsWeight) {
                                  times, what);
       ASSERT_EQ(e.size(), times.size());
       for (std::size_t q = 0; q < times.size(); ++q)
-        EXPECT_LT(std::abs(e[q]), 0.03) << what << " t = " << times[q];
+        EXPECT_LT(std::abs(e[q]), 0.01) << what << " t = " << times[q];
     }
   }
   const std::array<double, 3> an{20, 22, 33};
@@ -458,6 +459,46 @@ TEST(NdamCoulomb, LayerBetweenMarkerRowsFollowsTheLawWithTheFullCellsWeight) {
     }
     std::printf("[measured] layer at rest between rows 20/22/33, %.1f cells: worst |u_mean| to 4 s "
                 "%.3e m/s, creep bound %.3e\n", cells, worst, u_c);
+  }
+}
+
+// The plug law at the depths a user takes, with either consistent surface cell mass
+// (scripts/plug_law.py; docs/validation.md, "The plug law at any depth"): 5 mm cells, a
+// periodic box of 40 columns (a partial marker row leaves a pattern of columns one marker
+// deeper that a box of four cannot hold), 6 cells high, m_c = 100 s/m, m_y = 100 s, CFL 0.5.
+// Before the column depth was spread over two cells (free_surface.cpp), a partial row's
+// pattern forced the near-rigid layer at the grid scale: Full cell and weight lagged 9.1 /
+// 10.6 % at 2.3 / 2.8 cells, the Material share 3.5 / 4.3 % and ran 13.8 % ahead at 0.46 cells
+// (30/22/33 deg). Measured now at most 1.03 % (1.4 cells), 0.41 % at the depths below.
+// Asserted at every output from 0.05 to 1 s: within the 1 % at 0.46, 2.3 and 2.8 cells
+// on 30/22/33 and 40/25/35 deg, both forms.
+TEST(NdamCoulomb, PlugBetweenMarkerRowsFollowsTheLawWithEitherConsistentForm) {
+  std::vector<double> times;
+  for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
+  for (const auto& an : {std::array<double, 3>{30, 22, 33}, std::array<double, 3>{40, 25, 35}}) {
+    const auto law = plug_law(an[0], an[1], 100.0, times);
+    for (const char* mass : {"Material share", "Full cell and weight"})
+      for (double cells : {0.46, 2.3, 2.8}) {
+        FsCase c;
+        c.nx = 40;
+        c.lx = 0.2;
+        c.nz = 6;
+        c.lz = 0.03;
+        c.depth = cells * 0.005;
+        c.slope_deg = an[0];
+        c.delta_deg = an[1];
+        c.phi_deg = an[2];
+        c.m_c = 100.0;
+        c.cfl = 0.5;
+        c.surface_mass = mass;
+        char what[96];
+        std::snprintf(what, sizeof what, "plug %g/%g/%g, %.2f cells of 5 mm, %s", an[0], an[1],
+                      an[2], cells, mass);
+        const auto e = plug_errors(c, law, times, what);
+        ASSERT_EQ(e.size(), times.size());
+        for (std::size_t q = 0; q < times.size(); ++q)
+          EXPECT_LT(std::abs(e[q]), 0.01) << what << " t = " << times[q];
+      }
   }
 }
 
