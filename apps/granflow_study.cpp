@@ -105,6 +105,42 @@ const ProfileAt* at_time(const std::map<double, ProfileAt>& run, double t) {
   return best;
 }
 
+// Runs of two scenes (another slope, material, inflow or initial condition) are compared as
+// asked, with a note per difference: their table measures the scenes' difference, not a
+// discretisation's (an independent run compared 45 with 50 deg without a word). The models and
+// grids may differ: that is what compare is for. From the runs' summary.json (none: no notes).
+std::vector<std::string> scene_differences(const std::string& ref_dir, const std::string& test_dir) {
+  auto params = [](const std::string& dir) {
+    std::ifstream in(dir + "/summary.json");
+    const auto j = in ? nlohmann::json::parse(in, nullptr, false) : nlohmann::json();
+    return (!j.is_discarded() && j.is_object() && j.contains("parameters")) ? j["parameters"]
+                                                                            : nlohmann::json();
+  };
+  std::vector<std::string> notes;
+  std::function<void(const nlohmann::json&, const nlohmann::json&, const std::string&)> diff =
+      [&](const nlohmann::json& a, const nlohmann::json& b, const std::string& name) {
+        if (a.is_object() && b.is_object()) {
+          for (const auto& [k, v] : a.items()) {
+            // a series file is named by its path: the same data elsewhere is the same scene
+            if (k == "Inflow series file") continue;
+            if (b.contains(k)) diff(v, b[k], name + "->" + k);
+            else notes.push_back(name + "->" + k + " is set in " + ref_dir + " only");
+          }
+          for (const auto& [k, v] : b.items())
+            if (!a.contains(k) && k != "Inflow series file")
+              notes.push_back(name + "->" + k + " is set in " + test_dir + " only");
+          return;
+        }
+        if (a != b)
+          notes.push_back("the runs' scenes differ in " + name + " (" + a.dump() + " against " +
+                          b.dump() + ")");
+      };
+  const auto pr = params(ref_dir), pt = params(test_dir);
+  for (const char* list : {"Channel", "Material", "Initial condition"})
+    if (pr.contains(list) && pt.contains(list)) diff(pr[list], pt[list], list);
+  return notes;
+}
+
 int compare_cmd(int argc, char** argv) {
   if (argc < 4) return usage(std::cerr, 1);
   const std::string ref_dir = argv[2], test_dir = argv[3];
@@ -150,41 +186,8 @@ int compare_cmd(int argc, char** argv) {
   const auto test = read_profiles(test_dir + "/profiles.csv", &test_note);
   for (const std::string& n : {ref_note, test_note})
     if (!n.empty()) std::cout << "note: " << n << "\n";
-  // Runs of two scenes (another slope, material, inflow or initial condition) are compared as
-  // asked, with a note: their table measures the scenes' difference, not a discretisation's (an
-  // independent run compared 45 with 50 deg without a word). The models and grids may differ:
-  // that is what compare is for. (Printed after the channel check below, which refuses runs of
-  // two channels outright.)
-  std::vector<std::string> scene_notes;
-  {
-    auto params = [](const std::string& dir) {
-      std::ifstream in(dir + "/summary.json");
-      const auto j = in ? nlohmann::json::parse(in, nullptr, false) : nlohmann::json();
-      return (!j.is_discarded() && j.is_object() && j.contains("parameters")) ? j["parameters"]
-                                                                              : nlohmann::json();
-    };
-    const auto pr = params(ref_dir), pt = params(test_dir);
-    std::function<void(const nlohmann::json&, const nlohmann::json&, const std::string&)> diff =
-        [&](const nlohmann::json& a, const nlohmann::json& b, const std::string& name) {
-          if (a.is_object() && b.is_object()) {
-            for (const auto& [k, v] : a.items()) {
-              // a series file is named by its path: the same data elsewhere is the same scene
-              if (k == "Inflow series file") continue;
-              if (b.contains(k)) diff(v, b[k], name + "->" + k);
-              else scene_notes.push_back(name + "->" + k + " is set in " + ref_dir + " only");
-            }
-            for (const auto& [k, v] : b.items())
-              if (!a.contains(k) && k != "Inflow series file")
-                scene_notes.push_back(name + "->" + k + " is set in " + test_dir + " only");
-            return;
-          }
-          if (a != b)
-            scene_notes.push_back("the runs' scenes differ in " + name + " (" + a.dump() +
-                                  " against " + b.dump() + ")");
-        };
-    for (const char* list : {"Channel", "Material", "Initial condition"})
-      if (pr.contains(list) && pt.contains(list)) diff(pr[list], pt[list], list);
-  }
+  // (printed after the channel check below, which refuses runs of two channels outright)
+  const std::vector<std::string> scene_notes = scene_differences(ref_dir, test_dir);
   for (const auto* run : {&ref, &test})
     if (run->empty()) {
       std::cerr << "granflow-study: " << (run == &ref ? ref_dir : test_dir)

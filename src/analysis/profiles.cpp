@@ -91,10 +91,9 @@ std::map<double, ProfileAt> read_profiles(const std::string& file, std::string* 
   bool short_output = false;
   if (out.size() >= 2) {
     const auto& before = std::prev(last)->second;
-    const double tol = 0.5 * std::min(last_cell(before), last->second.x.size() >= 2
-                                                             ? last_cell(last->second)
-                                                             : last_cell(before));
-    short_output = channel_end(last->second) < channel_end(before) - tol;
+    double cell = last_cell(before);  // the tolerance: half the smaller of the two end cells
+    if (last->second.x.size() >= 2) cell = std::min(cell, last_cell(last->second));
+    short_output = channel_end(last->second) < channel_end(before) - 0.5 * cell;
   }
   if (cut_last || short_output) {
     if (note) {
