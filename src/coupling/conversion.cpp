@@ -396,6 +396,9 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
     st.u.assign(ncell, 0.0);
     st.w.assign(ncell, 0.0);
     st.p.assign(ncell, 0.0);
+    // the bed's normal stress of the last step's balance: copied columns keep theirs, filled
+    // ones have none (NaN: their first step takes eq. (13) from p)
+    st.bed_stress.assign(static_cast<std::size_t>(nx), std::numeric_limits<double>::quiet_NaN());
     ndam::NdamStatistics stats;
     bool first_stats = true;
     for (const auto& o : old) {
@@ -449,6 +452,8 @@ std::vector<Subdomain> rebuild(const std::vector<Subdomain>& parts, std::size_t 
         mm.x = j * nb.dx + frac;
         st.markers.push_back(mm);
       }
+      if (o.state.bed_stress.size() == static_cast<std::size_t>(o.state.nx))
+        st.bed_stress[static_cast<std::size_t>(j)] = o.state.bed_stress[static_cast<std::size_t>(g)];
       hcol[static_cast<std::size_t>(j)] =
           static_cast<double>(o.column_markers[static_cast<std::size_t>(g)].size()) * area / nb.dx;
     }

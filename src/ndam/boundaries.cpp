@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace granflow::ndam {
 
@@ -271,8 +272,13 @@ void NdamSolver::fill_scalar_ghosts(Field& s) const {
 // exact stress c(u^n) at u = u^n and a positive drag, stable for any dt). The lagged form
 // beta(u^n) u^{n+1} with beta = c(u^n) / |u^n| that this replaces exceeded the Coulomb bound
 // by u^{n+1} / u^n while the base accelerates (issue 11). delta = 0 gives a = 1, b = 0: free
-// slip. p at the bed: the mean of the material cells above the face extrapolated
-// hydrostatically by dz/2 (p_b = p_0 + g cos(zeta) dz / 2).
+// slip. N at the bed: the mean over the material cells either side of the face, extrapolated
+// hydrostatically by dz/2 (p_b = p_0 + g cos(zeta) dz / 2). In the implicit scheme, where both
+// cells are pressure unknowns, the cell's -sigma_zz of the vertical balance that the last step
+// solved (record_bed_stress: the step's pressure p^n + phi and its predictor's viscous normal
+// stress) stands for p_0 + 2 nu_eff u_x, plus q - p^n where the nonlinear coupling evaluates
+// the law at a trial pressure q (0 in a lagged step); elsewhere (a bottom cell that is a
+// Surface cell, the first step, the explicit scheme) p_0 and u^n as written.
 void NdamSolver::update_friction(const Field& p_yield) {
   const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz(), m = cfg_.m_c;
@@ -311,6 +317,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
     for (int i = 0; i < nxl; ++i) local[static_cast<std::size_t>(i)] = surface_traction_at_bed(i);
     surf_t = mac_.gather_columns(local);
   }
+  const bool balance = cfg_.momentum == Momentum::Implicit && bed_stress_.nx_local() == nxl;
   if (cfg_.walls[2].kind == WallKind::Coulomb)
     for (int i = -G; i < nxl + G; ++i) {
       const int gi = mac_.slab.i0 + i;
@@ -318,11 +325,15 @@ void NdamSolver::update_friction(const Field& p_yield) {
       const bool inside = cfg_.periodic_x() || (gi >= 0 && gi < cfg_.grid.nx);
       if (inside && (i < 0 || i >= nxl)) continue;
       const int ir = std::min(i + 1, nxl + G - 1), il = std::max(i - 1, -G);
+      const bool from_balance = balance && mac_.p_unknown(gi, 0) &&
+                                mac_.p_unknown(gi + (ir - i), 0) &&
+                                std::isfinite(bed_stress_(i, 0)) && std::isfinite(bed_stress_(ir, 0));
       double pb = 0.0;
       int n = 0;
       for (int c : {i, ir})
         if (mac_.fluid(gi + (c - i), 0)) {
-          pb += loaded_pressure(c, 0, p_yield(c, 0));
+          pb += loaded_pressure(
+              c, 0, from_balance ? bed_stress_(c, 0) + (p_yield(c, 0) - p_(c, 0)) : p_yield(c, 0));
           ++n;
         }
       if (n == 0) continue;
@@ -349,7 +360,7 @@ void NdamSolver::update_friction(const Field& p_yield) {
       if (!surf_t.empty()) pb -= bed_surface_traction(gi, surf_t);
       const double nub = 0.5 * (nu_(i, 0) + nu_(ir, 0));
       const double dudx = (u_(ir, 0) - u_(il, 0)) / ((ir - il) * dx);
-      const double N = std::max(0.0, pb + 2.0 * nub * dudx);
+      const double N = std::max(0.0, pb + (from_balance ? 0.0 : 2.0 * nub * dudx));
       const auto f = static_cast<std::size_t>(i + G);
       bed_n_[f] = N;
       bed_q_[f] = dz * phys_.tan_delta * N / nub;
@@ -390,6 +401,36 @@ void NdamSolver::update_friction(const Field& p_yield) {
                                  wall_a_[f], wall_b_[f],
                                  stuck_frozen_ ? &wall_stuck_first_[f] : nullptr);
     }
+}
+
+// The bottom cells' normal stress of the vertical balance that this step solves, for the next
+// step's Coulomb friction (update_friction). The step applies the pressure P = p^n + phi (the
+// predictor's p^n, the projection's increment) and the viscous stress of the predictor's u*;
+// summed over the cells of a row, the shear terms of the w rows cancel, so the rows carry the
+// layer's weight down to the bottom cells as -sigma_zz = P - 2 nu_eff w*_z, and over a periodic
+// bed these sum to the weight (less the half cell below the centres) whatever the flow inside.
+// eq. (13) taken from the stored p^{n+1} = P - chi nu_eff div u* (the rotational update,
+// projection.cpp) and u^{n+1} does not: the rotational term is the viscous splitting error for a
+// uniform nu_eff only, and where nu_eff varies (a plug, nu_eff ~ tau_y m_y growing with depth)
+// the bed's normal stress summed over the columns departed from the weight by -2 to +13 %, with
+// the step and with m_y. A plug of 2.3-2.8 cells then lagged its law by 9-11 % (m_y = 1e4 s) at
+// the CFL step and converged to it only as dt -> 0; one of 1.4-1.8 cells (one full cell under a
+// partly filled one) by 1-2 % at any step; the material share's 2.3 cells at m_y = 1e4 s ran
+// 3-5 % ahead at small steps (docs/validation.md, "The bed's normal stress from the step's own
+// balance"). NaN where the bottom cell is not a pressure unknown (its p is a Dirichlet value
+// and no w row carries it): update_friction then takes eq. (13) from p.
+void NdamSolver::record_bed_stress(const Field& phi) {
+  const int nxl = mac_.slab.nx_local;
+  const double dz = cfg_.grid.dz();
+  if (bed_stress_new_.nx_local() != nxl || bed_stress_new_.nz() != cfg_.grid.nz)
+    bed_stress_new_ = Field(nxl, cfg_.grid.nz);
+  bed_stress_new_.fill(std::numeric_limits<double>::quiet_NaN());
+  if (cfg_.momentum != Momentum::Implicit || cfg_.walls[2].kind != WallKind::Coulomb) return;
+  for (int i = 0; i < nxl; ++i)
+    if (mac_.p_unknown(mac_.slab.i0 + i, 0))
+      bed_stress_new_(i, 0) = p_(i, 0) + phi(i, 0) -
+                              2.0 * nu_normal(i, 0) * (w_star_(i, 0) - w_star_(i, -1)) / dz;
+  fill_scalar_ghosts(bed_stress_new_);
 }
 
 std::vector<double> NdamSolver::bed_normal_stress() const {

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -254,6 +255,11 @@ NdamState NdamSolver::export_state() const {
     s.wall_offset = wall(wall_b_);
     s.momentum_dt = momentum_dt_;
     s.friction_dt = friction_dt_;
+    if (bed_stress_.nx_local() == nxl) {
+      std::vector<double> own(static_cast<std::size_t>(nxl));
+      for (int i = 0; i < nxl; ++i) own[static_cast<std::size_t>(i)] = bed_stress_(i, 0);
+      s.bed_stress = mac_.gather_columns(own);
+    }
   }
   s.surface_applied = true;
   return s;
@@ -325,6 +331,14 @@ void NdamSolver::import_state(const NdamState& s) {
     wall_b_ = offsets ? s.wall_offset : std::vector<double>(wall_a_.size(), 0.0);
   };
   if (factors) set_factors();
+  // the bed's normal stress of the last step's balance (record_bed_stress), or none
+  bed_stress_ = Field();
+  if (s.bed_stress.size() == static_cast<std::size_t>(cfg_.grid.nx)) {
+    bed_stress_ = Field(nxl, cfg_.grid.nz, std::numeric_limits<double>::quiet_NaN());
+    for (int i = 0; i < nxl; ++i)
+      bed_stress_(i, 0) = s.bed_stress[static_cast<std::size_t>(mac_.slab.i0 + i)];
+    fill_scalar_ghosts(bed_stress_);
+  }
   fill_velocity_ghosts(u_, w_, !s.surface_applied);
   fill_scalar_ghosts(p_);
   if (!factors) {
@@ -385,6 +399,17 @@ void NdamSolver::save(io::Checkpoint& c) const {
   c.set("ndam/bed_offset", s.bed_offset);
   c.set("ndam/wall_offset", s.wall_offset);
   c.set("ndam/momentum_dt", s.momentum_dt);
+  if (!s.bed_stress.empty()) {
+    // NaN (no balance there) as 0 with a mask: a checkpoint holds finite numbers only
+    std::vector<double> v(s.bed_stress.size(), 0.0), has(s.bed_stress.size(), 0.0);
+    for (std::size_t q = 0; q < v.size(); ++q)
+      if (std::isfinite(s.bed_stress[q])) {
+        v[q] = s.bed_stress[q];
+        has[q] = 1.0;
+      }
+    c.set("ndam/bed_stress", v);
+    c.set("ndam/bed_stress_set", has);
+  }
   c.set("ndam/friction_dt", s.friction_dt);
   c.set("ndam/surface_applied", s.surface_applied ? 1.0 : 0.0);
   // the slabs of a split by the work of the columns (load_balance.cpp): a restart on as many
@@ -438,6 +463,12 @@ void NdamSolver::load(const io::Checkpoint& c) {
     }
     s.momentum_dt = c.scalar("ndam/momentum_dt");
     if (c.scalars().count("ndam/friction_dt")) s.friction_dt = c.scalar("ndam/friction_dt");
+  }
+  if (c.arrays().count("ndam/bed_stress") && c.arrays().count("ndam/bed_stress_set")) {
+    s.bed_stress = c.array("ndam/bed_stress");
+    const auto& has = c.array("ndam/bed_stress_set");
+    for (std::size_t q = 0; q < s.bed_stress.size(); ++q)
+      if (q >= has.size() || has[q] == 0.0) s.bed_stress[q] = std::numeric_limits<double>::quiet_NaN();
   }
   s.surface_applied = c.scalars().count("ndam/surface_applied") &&
                       c.scalar("ndam/surface_applied") != 0.0;

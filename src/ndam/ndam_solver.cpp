@@ -643,6 +643,7 @@ void NdamSolver::accept() {
   std::swap(u_, u_new_);
   std::swap(w_, w_new_);
   std::swap(p_, p_new_);
+  std::swap(bed_stress_, bed_stress_new_);
   if (cfg_.free_surface) {
     const auto tm = Clock::now();
     std::swap(markers_, markers_new_);

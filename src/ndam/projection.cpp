@@ -178,6 +178,7 @@ void NdamSolver::project(double dt) {
   u_star_ = u_new_;
   w_star_ = w_new_;
   correct_velocity(dt, phi, u_new_, w_new_);
+  record_bed_stress(phi);
   p_new_ = p_;
   // Rotational pressure update (Timmermans et al. 1996; Guermond, Minev & Shen 2006) for the
   // implicit treatment: p^{n+1} = p^n + phi - 2 nu_eff div u*. In the stress form

