@@ -277,8 +277,8 @@ void NdamSolver::fill_scalar_ghosts(Field& s) const {
 // cells are pressure unknowns, the cell's -sigma_zz of the vertical balance that the last step
 // solved (record_bed_stress: the step's pressure p^n + phi and its predictor's viscous normal
 // stress) stands for p_0 + 2 nu_eff u_x, plus q - p^n where the nonlinear coupling evaluates
-// the law at a trial pressure q (0 in a lagged step); elsewhere (a bottom cell that is a
-// Surface cell, the first step, the explicit scheme) p_0 and u^n as written.
+// the law at a trial pressure q (0 in a lagged step); elsewhere (a bottom cell that is not a
+// pressure unknown, the first step, the explicit scheme) p_0 and u^n as written.
 void NdamSolver::update_friction(const Field& p_yield) {
   const int G = Field::G, nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
   const double dx = cfg_.grid.dx(), dz = cfg_.grid.dz(), m = cfg_.m_c;
@@ -406,9 +406,11 @@ void NdamSolver::update_friction(const Field& p_yield) {
 // The bottom cells' normal stress of the vertical balance that this step solves, for the next
 // step's Coulomb friction (update_friction). The step applies the pressure P = p^n + phi (the
 // predictor's p^n, the projection's increment) and the viscous stress of the predictor's u*;
-// summed over the cells of a row, the shear terms of the w rows cancel, so the rows carry the
-// layer's weight down to the bottom cells as -sigma_zz = P - 2 nu_eff w*_z, and over a periodic
-// bed these sum to the weight (less the half cell below the centres) whatever the flow inside.
+// summed over the cells of a row, the shear terms of the w rows cancel, so in a quasi-steady
+// layer the rows carry its weight down to the bottom cells as -sigma_zz = P - 2 nu_eff w*_z, and
+// over a periodic bed these sum to the weight (less the half cell below the centres; inertia,
+// convection and, with the Material share, the share's weights of a partly filled cell enter
+// the rows too).
 // eq. (13) taken from the stored p^{n+1} = P - chi nu_eff div u* (the rotational update,
 // projection.cpp) and u^{n+1} does not: the rotational term is the viscous splitting error for a
 // uniform nu_eff only, and where nu_eff varies (a plug, nu_eff ~ tau_y m_y growing with depth)

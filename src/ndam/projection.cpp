@@ -197,7 +197,11 @@ void NdamSolver::project(double dt) {
             // eq. 26 at an interface, 0 when Empty); obstacles: phi = 0
         p_new_(i, k) += phi(i, k);
     }
-  if (!cfg_.free_surface) normalise_pressure(p_new_);
+  if (!cfg_.free_surface) {
+    // a closed box: the pressure's level is free; the bed's stress takes the same level
+    const double c = normalise_pressure(p_new_);
+    for (auto& v : bed_stress_new_.data()) v -= c;  // (NaN stays NaN)
+  }
   fill_scalar_ghosts(p_new_);
   stats_.step_pressure += detail::seconds_since(t2);
 }
@@ -379,7 +383,7 @@ double NdamSolver::pressure_difference(const Field& p, Comp c, int i, int k) con
 // extrapolated linearly to the top wall z = Lz, averages to zero there: the top of the box plays
 // the role of the free surface, and the tau_p p yield stress sees a pressure that grows with
 // depth from 0.
-void NdamSolver::normalise_pressure(Field& p) const {
+double NdamSolver::normalise_pressure(Field& p) const {
   // Columns whose two top cells are fluid; if an obstacle covers the top of every column, the
   // mean over the fluid cells is set to zero instead.
   const int nxl = mac_.slab.nx_local, nz = cfg_.grid.nz;
@@ -400,6 +404,7 @@ void NdamSolver::normalise_pressure(Field& p) const {
   MPI_Allreduce(sums, all, 4, MPI_DOUBLE, MPI_SUM, comm_);
   const double c = all[1] > 0.0 ? all[0] / all[1] : all[2] / all[3];
   for (auto& v : p.data()) v -= c;
+  return c;
 }
 
 // A state assembled from converted columns (the domain manager's moves) is divergence-free only

@@ -270,7 +270,8 @@ void expect_pair_agrees(const Series& lag, const Series& nl, double t_end,
 // allow (measured at 0.65 ... 0.9 s: depth within 7.5 mm, 0.1 s means of p_foot within 0.6 %,
 // of the normal force within 1.4 %; since the bed's normal stress comes from the step's own
 // vertical balance, 2026-12-07: within 10.0 mm, 2.8 % and 1.3 %, the nonlinear run's deposit
-// the deeper): the depth within five marker rows (12.5 mm, 1.25 cells; two runs that differ
+// the deeper, a systematic shift of that change, whose lagged run takes the balance of p^n and
+// the nonlinear one adds its trial pressure's q - p^n): the depth within five marker rows (12.5 mm, 1.25 cells; two runs that differ
 // only in where the gate injects its markers differ by 5-6 % in h, docs/validation.md, 8 mm of
 // the 0.14 m deposit, and the single wall column scatters by 2-3.5 % rms from its neighbours),
 // the 0.1 s means within 5 %. The box is 0.2 m high (20 cells): since the bed

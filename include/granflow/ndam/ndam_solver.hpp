@@ -344,7 +344,7 @@ class NdamSolver final : public core::Stepper {
   void project(double dt);  // predictor, projection, pressure update into *_new_ (timed)
   void solve_pressure(double dt, const Field& us, const Field& ws, Field& phi);
   void correct_velocity(double dt, const Field& phi, Field& us, Field& ws) const;
-  void normalise_pressure(Field& p) const;
+  double normalise_pressure(Field& p) const;  // returns the constant it took off
   void initial_pressure();
   double divergence(const Field& u, const Field& w, int i, int k) const;
   bool rotational_cell(int i, int k) const;  // the rotational pressure update acts here
