@@ -217,10 +217,10 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "mass and non-viscous forces by the share of the cells that holds material "
              "(Implicit momentum only). Both take a column depth that shares each marker "
              "between its two nearest columns and is spread over about two cells: a plug "
-             "follows its law within 0.41 % at 0.46-4.3 cells (5 mm, three angle sets, "
-             "Regularisation 100; 2.5 mm: 0.32 %), with Regularisation 1e4 within 0.62 % "
-             "where the layer is deeper than a cell and 1.5 % (5 mm) to 3 % (2.5 mm) in one "
-             "partly filled row. docs/validation.md, 'The weight of the full cells', 'The plug "
+             "follows its law within 1 % at 0.46-4.3 cells (2.5-10 mm, six angle sets, "
+             "Regularisation 100 and, deeper than a cell, 1e4; the Material share within "
+             "0.35 %), and within 1.5 % (5 mm) to 3 % (2.5 mm) in one partly filled row with "
+             "Regularisation 1e4. docs/validation.md, 'The weight of the full cells', 'The plug "
              "law at any depth' and 'The bed's normal stress from the step's own balance' "
              "(scripts/plug_law.py)",
              {"Full cell", "Full cell and weight", "Material share"});

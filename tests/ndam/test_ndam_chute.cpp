@@ -478,7 +478,7 @@ TEST(NdamCoulomb, LayerBetweenMarkerRowsFollowsTheLawWithTheFullCellsWeight) {
 // from 0.05 to 1 s, on 30/22/33 and 40/25/35 deg, both forms: within the 1 % at 0.46,
 // 1.4, 2.3 and 2.8 cells with m_y = 100 s and at 1.4 and 2.8 cells with m_y = 1e4 s. (A layer
 // of one partly filled row with m_y = 1e4 s, 0.46-0.9 cells, whose bottom cell is no pressure
-// unknown, is within 1.5 %: not asserted at 1 %.)
+// unknown, is within 1.5 % at 5 mm and 3 % at 2.5 mm: not asserted at 1 %.)
 TEST(NdamCoulomb, PlugBetweenMarkerRowsFollowsTheLawWithEitherConsistentForm) {
   std::vector<double> times;
   for (int q = 1; q <= 20; ++q) times.push_back(0.05 * q);
