@@ -424,10 +424,14 @@ void NdamSolver::update_friction(const Field& p_yield) {
 void NdamSolver::record_bed_stress(const Field& phi) {
   const int nxl = mac_.slab.nx_local;
   const double dz = cfg_.grid.dz();
+  // no Coulomb bed, or the explicit scheme: nothing to record (nor to checkpoint)
+  if (cfg_.momentum != Momentum::Implicit || cfg_.walls[2].kind != WallKind::Coulomb) {
+    bed_stress_new_ = Field();
+    return;
+  }
   if (bed_stress_new_.nx_local() != nxl || bed_stress_new_.nz() != cfg_.grid.nz)
     bed_stress_new_ = Field(nxl, cfg_.grid.nz);
   bed_stress_new_.fill(std::numeric_limits<double>::quiet_NaN());
-  if (cfg_.momentum != Momentum::Implicit || cfg_.walls[2].kind != WallKind::Coulomb) return;
   for (int i = 0; i < nxl; ++i)
     if (mac_.p_unknown(mac_.slab.i0 + i, 0))
       bed_stress_new_(i, 0) = p_(i, 0) + phi(i, 0) -
