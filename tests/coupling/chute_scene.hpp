@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 namespace granflow::test {
 
 /// A chute scene in the style of the paper's Setup I/II (zeta = 50 deg, phi = 33, delta = 22,
@@ -167,21 +169,34 @@ struct Chute {
     return s;
   }
 
+  /// The scene file's path: in the test temporary directory (not the working directory, which
+  /// is the repository when a test binary is started from there), with the writing process's
+  /// id so that two suites running at once (a CI clone beside a build) do not share it.
+  std::string scene_file(long pid) const {
+    return ::testing::TempDir() + "test_coupled_2d_" + name + "_" + std::to_string(pid) + ".xml";
+  }
   /// Writes the scene file and builds its model through the scene interface.
   std::unique_ptr<core::Stepper> build() const {
-    const std::string file = "test_coupled_2d_" + name + ".xml";
+    const std::string file = scene_file(static_cast<long>(::getpid()));
     std::ofstream(file) << xml();
-    return scene::build_model(scene::load(file));
+    auto model = scene::build_model(scene::load(file));
+    std::remove(file.c_str());
+    return model;
   }
   /// The same under MPI: rank 0 of MPI_COMM_WORLD writes the file, every rank builds the model
   /// with its 2D parts on `comm` (MPI_COMM_SELF: a serial copy on each rank).
   std::unique_ptr<core::Stepper> build(MPI_Comm comm) const {
-    const std::string file = "test_coupled_2d_" + name + ".xml";
     int rank = 0;
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    long pid = static_cast<long>(::getpid());  // rank 0's, the name every rank reads
+    MPI_Bcast(&pid, 1, MPI_LONG, 0, MPI_COMM_WORLD);
+    const std::string file = scene_file(pid);
     if (rank == 0) std::ofstream(file) << xml();
     MPI_Barrier(MPI_COMM_WORLD);
-    return scene::build_model(scene::load(file), comm);
+    auto model = scene::build_model(scene::load(file), comm);
+    MPI_Barrier(MPI_COMM_WORLD);
+    if (rank == 0) std::remove(file.c_str());
+    return model;
   }
 };
 

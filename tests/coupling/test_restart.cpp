@@ -59,8 +59,13 @@ Divergence restart_and_compare(const Chute& c, double t1, int steps, bool throug
   io::Checkpoint ck;
   straight->save(ck);
   if (through_file) {  // as the app does: checkpoint.h5 written and read back
-    io::write_checkpoint("test_restart_" + c.name + ".h5", ck);
-    ck = io::read_checkpoint("test_restart_" + c.name + ".h5");
+    // in the test temporary directory, not the working directory (the repository when the
+    // binary is started from there), with the process id (a CI clone's suite may run beside)
+    const std::string file = ::testing::TempDir() + "test_restart_" + c.name + "_" +
+                             std::to_string(static_cast<long>(::getpid())) + ".h5";
+    io::write_checkpoint(file, ck);
+    ck = io::read_checkpoint(file);
+    std::remove(file.c_str());
   }
   straight->restart_point();  // as the driver does after writing a checkpoint
   Chute c2 = c;
