@@ -206,11 +206,16 @@ void NdamSolver::rest_state() {
   if (cfg_.free_surface) {
     const double xa = cfg_.initial_x0 - cfg_.x0, xb = cfg_.initial_x1 - cfg_.x0,
                  h0 = cfg_.initial_depth;
-    if (h0 > 0.0) markers_->seed_rectangle(xa, xb, h0);
+    // The layer is the channel's: a 2D part of a coupled layout that it does not reach starts
+    // empty (the layout's validation refuses a layer that reaches into a 1D part). Before, such
+    // a part refused the layer as holding no marker, so no layout with two 2D parts took one
+    // (an independent run, session 44).
+    const bool layer_here = h0 > 0.0 && xa < nx * cfg_.grid.dx() && xb > 0.0;
+    if (layer_here) markers_->seed_rectangle(xa, xb, h0);
     mass0_ = markers_->mass().area;
     // A layer too thin (or too short) for one marker would start an empty box without a word
     // (an independent run: 'Initial depth' 1e-9 m, exit 0, mass 0).
-    if (h0 > 0.0 && mass0_ == 0.0)
+    if (layer_here && mass0_ == 0.0)
       throw params::InputError(
           "parameter 'granflow->N-DAM->Initial depth' = " + params::str(h0) +
           ": the layer on [" + params::str(cfg_.initial_x0) + ", " +

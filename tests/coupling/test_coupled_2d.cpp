@@ -660,6 +660,46 @@ TEST(Coupled2D, AWallSeriesOnlyWhereAModelResolvesTheWall) {
   EXPECT_FALSE(m->wall_load().has_value());
 }
 
+// An initial layer in one 2D part of a layout with two (a block released at the wall behind the
+// paper's Setup II layout, no gate): the channel's layer belongs to the part it lies in, and the
+// other 2D part starts empty. Each part built the channel's layer for itself, so the gate part,
+// which the layer does not reach, refused it as "holding no marker" and no layout with two 2D
+// parts took an initial layer (an independent run, session 44: exit 2 with a message naming a
+// depth 16 times the minimum it quoted). Asserted: the scene builds, the layer's mass
+// (0.02 m x 0.2 m = 0.004 m^2, a whole number of markers: 2560 of 1e-4 / 16 m^2 at 10 mm) is
+// all in the wall part and none in the gate part, and after 0.3 s of sliding into the wall
+// (25 deg over delta = 22) the mass is conserved to round-off and none of it has left the wall
+// part (the layer only moves downslope).
+TEST(Coupled2D, InitialLayerInOneOfTwoTwoDParts) {
+  Chute c;
+  c.name = "layer_in_wall_part";
+  c.wall = true;
+  c.gate = false;
+  c.slope = 25.0;
+  c.end_time = 0.3;
+  c.ndam_extra = R"x(
+    <Parameter name="Initial depth" type="double" value="0.02"/>
+    <Parameter name="Initial x0" type="double" value="0.8"/>
+    <Parameter name="Initial x1" type="double" value="1.0"/>)x";
+  auto b = c.build();
+  const auto& cm = coupled(*b);
+  ASSERT_EQ(cm.parts().size(), 3u);
+  const auto start = b->mass_balance();
+  EXPECT_NEAR(start.current, 0.004, 1e-15);
+  EXPECT_EQ(cm.parts()[0].model->mass_balance().current, 0.0);
+  EXPECT_EQ(cm.parts()[1].model->mass_balance().current, 0.0);
+  EXPECT_NEAR(cm.parts()[2].model->mass_balance().current, 0.004, 1e-15);
+  run(*b, c.end_time);
+  const auto end = b->mass_balance();
+  std::printf("[measured] layer in the wall part, 10 mm, %.1f s: mass %.6e m^2, defect %.2e; "
+              "gate part %.2e, 1D part %.2e m^2\n", c.end_time, end.current, end.defect(),
+              cm.parts()[0].model->mass_balance().current,
+              cm.parts()[1].model->mass_balance().current);
+  EXPECT_LT(std::abs(end.defect()), 1e-15);  // round-off of sums of 2560 marker areas
+  EXPECT_EQ(cm.parts()[0].model->mass_balance().current, 0.0);
+  EXPECT_EQ(cm.parts()[1].model->mass_balance().current, 0.0);
+}
+
 namespace {
 // A layer 0.02 m deep at rest on 25 deg (delta 22, phi 33 deg), a free-slip wall at x = 0 and an
 // open end at x = 2 m: full 2D ("N-DAM") or 2D [0, 1] / 1D [1, 2] m ("Coupled", the DAM part
