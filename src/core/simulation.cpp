@@ -566,6 +566,16 @@ void Simulation::write_summary(const std::string& status, const std::string& rea
   s["model"] = model_->model_name();
   s["identity"] = identity_;
   s["parameters"] = parameters_json(params_);
+  // An inflow series replaces 'Inflow depth' and 'Inflow velocity' (channel.cpp refuses them
+  // beside it), whose defaults the validated list still holds: the record of the run leaves
+  // them out rather than report an inflow that did not happen (an independent run, session 44).
+  if (s["parameters"].contains("Channel"))
+    for (auto& [side, b] : s["parameters"]["Channel"].items())
+      if (b.is_object() && b.contains("Inflow series file") &&
+          b["Inflow series file"].is_string() && !b["Inflow series file"].get<std::string>().empty()) {
+        b.erase("Inflow depth");
+        b.erase("Inflow velocity");
+      }
   s["status"] = status;
   s["reason"] = reason;
   s["exit_code"] = code;
