@@ -104,6 +104,10 @@ series() { scene "$SRC/$1" "$2" -e "s|value=\"restart_[a-z]*\"/>|value=\"$3\"/>|
            -e '/<Parameter name="Inflow velocity"/d' "${@:4}"; }
 series restart_first.xml s_first.xml s_first
 expect 0 "completed at t = 0.1 s" s_first.xml
+# the record names the series and not the unused inflow depth and velocity (their defaults)
+[ "$(json s_first/summary.json "sorted(s['parameters']['Channel']['Left boundary'])")" = \
+  "['Inflow series file', 'Type']" ] ||
+  fail "summary.json's Left boundary: $(json s_first/summary.json "s['parameters']['Channel']['Left boundary']")"
 series restart_second.xml s_same.xml s_same -e "s|restart_first/checkpoint.h5|s_first/checkpoint.h5|"
 expect 0 "completed at t = 0.2 s" s_same.xml
 printf 't,h,u\n0,0.06,0.37\n0.15,0.08,0.5\n' > series.csv
