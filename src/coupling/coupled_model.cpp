@@ -96,6 +96,16 @@ Teuchos::RCP<const Teuchos::ParameterList> Decomposition::getValidParameters() {
              "Dynamic layout: a shock on the 1D side (u_mean drops across a column by more "
              "than the wave speed sqrt(beta h), to less than half its upstream value) counts as "
              "2D whatever its eps (false: eps and rest alone decide)");
+    add_bool(*pl, "Deceleration indicator", d.deceleration_indicator,
+             "Dynamic layout: where a 2D subdomain's depth-averaged flow slows by more than "
+             "2 % and deepens by more than 2 % (the means of u_mean and h over a fifth of "
+             "'Margin', at least two slots, on either side of a slot, at least two slots "
+             "inside the subdomain) on a slope that accelerates a sliding layer (tan(zeta) > tan(delta)), "
+             "the slot counts as 2D: the upstream reach of a shock, where the 2D pressure "
+             "slows a supercritical flow that the DAM, which takes no information from "
+             "downstream there, carries on unslowed (a 42 deg chute: u_mean 6.8 % off full 2D "
+             "at 2.5 mm without it; docs/validation.md) (false: eps, rest and shocks alone "
+             "decide)");
     add_bool(*pl, "Sub-cycling", d.subcycling,
              "the 1D subdomains take their own stable steps inside the common step of the 2D "
              "ones (false: one common step for all, the smallest stable step of any subdomain); "
@@ -143,6 +153,7 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   d.check_interval = pl.get<double>("Check interval");
   d.rest_speed = pl.get<double>("Rest speed");
   d.shock_indicator = pl.get<bool>("Shock indicator");
+  d.deceleration_indicator = pl.get<bool>("Deceleration indicator");
   d.subcycling = pl.get<bool>("Sub-cycling");
   d.interface_mass_relaxation = pl.get<double>("Interface mass relaxation");
   // A setting of another layout is refused by name, as the 2D model's unused options are: an
@@ -154,7 +165,7 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
   const bool dynamic = d.layout == "Dynamic";
   if (!dynamic)
     for (const char* name : {"Initial layout", "Lower threshold", "Hold time", "Check interval",
-                             "Rest speed", "Shock indicator"})
+                             "Rest speed", "Shock indicator", "Deceleration indicator"})
       unused(name, "a setting of the domain manager, and 'Layout' = " + d.layout +
                        "; allowed: leave it out, or 'Layout' = Dynamic");
   if (d.layout == "Static")

@@ -23,6 +23,12 @@ namespace granflow::coupling {
 namespace {
 using Clock = std::chrono::steady_clock;
 constexpr int kMoveFields = 15;  // numbers per move in the checkpoint
+// 'Deceleration indicator' (target): the window on either side of a slot as a share of
+// 'Margin' (1 cm of the default 5 cm; at least two slots; a length of the scene, so that a
+// Froude-scaled scene is the scaled run), and the relative slowing and deepening between the
+// two windows' means that mark it
+constexpr double kSlowingWindowOfMargin = 0.2;
+constexpr double kSlowingFraction = 0.02;
 
 std::string describe(const std::vector<Subdomain>& parts) {
   std::ostringstream os;
@@ -205,13 +211,55 @@ std::vector<Piece> DomainManager::target(const CoupledModel& model) {
               std::abs(slots_[static_cast<std::size_t>(s + 1)].u_mean) <
                   0.5 * std::abs(slots_[static_cast<std::size_t>(s - 1)].u_mean);
   }
+  // The upstream reach of a shock on the 2D side. Upstream of a jump the 2D model's pressure
+  // slows the supercritical flow and deepens it over several depths of the deposit (a 42 deg
+  // chute of 1.3 m/s: from 0.1 m upstream of the jump's steep face, where eps is still 0.02),
+  // while the DAM, whose characteristics there all run downstream, carries the flow on at its
+  // own speed into the interface: with 'Margin' 0.05 m the dynamic layout's u_mean was 4-7 %
+  // off full 2D at 2.5 mm (an independent run, session 44; docs/validation.md). A steady flow
+  // that slows keeps its discharge and so deepens, which the DAM does as well on a slope where
+  // friction exceeds gravity; so the test applies only on slopes that accelerate a sliding
+  // layer, where the DAM's supercritical flow speeds up and only the jump ahead slows it. A
+  // front is not it (it thins towards its tip). Means over a window on either side of the slot
+  // (a fifth of 'Margin', at least two slots: the markers' scatter of a single column's h is a
+  // few per cent), inside one 2D subdomain and at least two slots from its upstream end (the
+  // first 2D columns adjust to the DAM's inflow by about a per cent). The flow runs downslope
+  // (+x) where the slope drives it.
+  if (d_.deceleration_indicator) {
+    const auto& ph = factory_->dam_physics();
+    const bool driving = ph.g_sin > ph.g_cos * ph.tan_delta;
+    const int w =
+        std::max(2, static_cast<int>(std::lround(kSlowingWindowOfMargin * d_.margin / slot_)));
+    auto part_of = [&](int s) {
+      const double xc = (s + 0.5) * slot_;
+      std::size_t p = 0;
+      while (p + 1 < parts.size() && xc > parts[p].x1) ++p;
+      return p;
+    };
+    for (int s = w + 2; driving && s + w <= nslots_; ++s) {
+      const std::size_t p = part_of(s);
+      if (!parts[p].ndam || part_of(s - w - 2) != p || part_of(s + w - 1) != p) continue;
+      double u_up = 0.0, h_up = 0.0, u_dn = 0.0, h_dn = 0.0;
+      bool all_wet = true;
+      for (int r = s - w; r < s + w && all_wet; ++r) {
+        const auto& q = slots_[static_cast<std::size_t>(r)];
+        all_wet = wet[static_cast<std::size_t>(r)] != 0;
+        (r < s ? u_up : u_dn) += q.u_mean;
+        (r < s ? h_up : h_dn) += q.h;
+      }
+      if (!all_wet || !(u_up > w * d_.rest_speed)) continue;
+      slots_[static_cast<std::size_t>(s)].slowing =
+          u_dn < (1.0 - kSlowingFraction) * u_up && h_dn > (1.0 + kSlowingFraction) * h_up;
+    }
+  }
   std::vector<char> need(slots_.size(), 0), want(slots_.size(), 0), rest(slots_.size(), 0);
   for (int s = 0; s < nslots_; ++s) {
     SlotState& q = slots_[static_cast<std::size_t>(s)];
     rest[static_cast<std::size_t>(s)] =
         wet[static_cast<std::size_t>(s)] && std::abs(q.u_mean) < d_.rest_speed;
     q.needs_2d = wet[static_cast<std::size_t>(s)] &&
-                 (q.eps >= d_.eps_threshold || rest[static_cast<std::size_t>(s)] || q.shock);
+                 (q.eps >= d_.eps_threshold || rest[static_cast<std::size_t>(s)] || q.shock ||
+                  q.slowing);
     need[static_cast<std::size_t>(s)] = q.needs_2d;
     want[static_cast<std::size_t>(s)] = q.two_d;
   }

@@ -47,6 +47,9 @@ struct Decomposition {
   double check_interval = 0.005;    ///< time between two evaluations of the layout [s]
   double rest_speed = 0.05;         ///< |u_mean| below this is material at rest: 2D [m/s]
   bool shock_indicator = true;      ///< a shock on the 1D side counts as 2D
+  /// a 2D column whose flow slows and deepens downstream on a slope that drives it (the
+  /// upstream reach of a shock, which the DAM cannot carry) counts as 2D
+  bool deceleration_indicator = true;
   /// The 1D parts take their own stable steps inside the common step of the 2D parts.
   bool subcycling = true;
   /// [s] interfaces into a DAM hand the mass their two sides count differently to the DAM's

@@ -10,7 +10,9 @@
 //   eps  = max(eps, |w_mean| / |u_mean|)                                in the 2D columns,
 //   rest = |u_mean| < 'Rest speed' where there is material:              counts as 2D,
 //   shock = u_mean drops across the slot by more than the wave speed sqrt(beta h), to less than
-//          half the upstream speed (1D side; a front, with a dry neighbour, is not a shock).
+//          half the upstream speed (1D side; a front, with a dry neighbour, is not a shock),
+//   slowing = on a slope that accelerates a sliding layer, the 2D flow slows and deepens
+//          downstream (2D side: the upstream reach of a shock, 'Deceleration indicator').
 //
 // The two sides' indicators are comparable because both use 1/Fr^2 of the same depth-averaged
 // state; |w|/|u| (the paper's eps of the 2D model) adds what only the 2D side can see (a jet,
@@ -61,8 +63,9 @@ class DomainManager {
     double x0 = 0.0, x1 = 0.0;
     double h = 0.0, u_mean = 0.0, eps = 0.0;
     bool two_d = false;   ///< the model of the slot at the check
-    bool needs_2d = false;  ///< eps >= upper threshold, rest or shock
+    bool needs_2d = false;  ///< eps >= upper threshold, rest, shock or slowing
     bool shock = false;
+    bool slowing = false;  ///< 2D flow slowing and deepening on a driving slope
   };
   const std::vector<SlotState>& last_check() const { return slots_; }
   double slot_width() const { return slot_; }
