@@ -1442,6 +1442,24 @@ TEST(NdamDepositLong, ColumnCollapseRestsWithinTheCreepBoundAt2p5mm) {
                         0.0025);
 }
 
+namespace {
+// A block 3 cm deep and 0.1 m wide on a horizontal Coulomb bed (phi = 40, delta = 35 deg; the
+// column-collapse scene) in cells of dx, and its box's column count.
+std::unique_ptr<core::Stepper> block_on_a_horizontal_bed(double dx, int& nx) {
+  auto sc = scene::load(std::string(GRANFLOW_INPUTS) + "/ndam_column_collapse.xml");
+  sc.params->sublist("Material").set("Internal friction angle", 40.0);
+  sc.params->sublist("Material").set("Bed friction angle", 35.0);
+  auto& n = sc.params->sublist("N-DAM");
+  nx = static_cast<int>(std::lround(sc.params->sublist("Channel").get<double>("Length") / dx));
+  n.set("Cells x", nx);
+  n.set("Cells z", static_cast<int>(std::lround(0.1 / dx)));
+  n.set("Height", 0.1);
+  n.set("Initial depth", 0.03);
+  n.set("Initial x1", 0.1);
+  return scene::build_model(sc);
+}
+}  // namespace
+
 // The bed's normal stress under a pile's toe (issue 11 item 2; docs/validation.md "Loaded
 // surface cells"). The Coulomb law (11)-(13) takes N = p_b + 2 nu_eff du/dx at each bed face;
 // a column that rests on its face carries its weight there, N = g cos(zeta) h. The cells of a
@@ -1464,18 +1482,8 @@ TEST(NdamDeposit, ToeOfABlockCarriesItsWeightOnTheBed) {
   for (const int cells_per_10cm : {10, 20}) {
     const double dx = 0.1 / cells_per_10cm;
     SCOPED_TRACE("dx = " + std::to_string(dx));
-    auto sc = scene::load(std::string(GRANFLOW_INPUTS) + "/ndam_column_collapse.xml");
-    sc.params->sublist("Material").set("Internal friction angle", 40.0);
-    sc.params->sublist("Material").set("Bed friction angle", 35.0);
-    auto& n = sc.params->sublist("N-DAM");
-    const int nx =
-        static_cast<int>(std::lround(sc.params->sublist("Channel").get<double>("Length") / dx));
-    n.set("Cells x", nx);
-    n.set("Cells z", static_cast<int>(std::lround(0.1 / dx)));
-    n.set("Height", 0.1);
-    n.set("Initial depth", 0.03);
-    n.set("Initial x1", 0.1);
-    auto model = scene::build_model(sc);
+    int nx = 0;
+    auto model = block_on_a_horizontal_bed(dx, nx);
     auto* s = dynamic_cast<ndam::NdamSolver*>(model.get());
     ASSERT_NE(s, nullptr);
     ASSERT_FALSE(mean_u_at(*s, {0.01}, 0.01).empty());
@@ -1518,18 +1526,8 @@ TEST(NdamDeposit, RestingBlockPutsItsWeightOnTheBed) {
   for (const int cells_per_10cm : {10, 20}) {
     const double dx = 0.1 / cells_per_10cm;
     SCOPED_TRACE("dx = " + std::to_string(dx));
-    auto sc = scene::load(std::string(GRANFLOW_INPUTS) + "/ndam_column_collapse.xml");
-    sc.params->sublist("Material").set("Internal friction angle", 40.0);
-    sc.params->sublist("Material").set("Bed friction angle", 35.0);
-    auto& n = sc.params->sublist("N-DAM");
-    const int nx =
-        static_cast<int>(std::lround(sc.params->sublist("Channel").get<double>("Length") / dx));
-    n.set("Cells x", nx);
-    n.set("Cells z", static_cast<int>(std::lround(0.1 / dx)));
-    n.set("Height", 0.1);
-    n.set("Initial depth", 0.03);
-    n.set("Initial x1", 0.1);
-    auto model = scene::build_model(sc);
+    int nx = 0;
+    auto model = block_on_a_horizontal_bed(dx, nx);
     auto* s = dynamic_cast<ndam::NdamSolver*>(model.get());
     ASSERT_NE(s, nullptr);
     const double g = 9.81;  // horizontal bed: g cos(zeta) = g
