@@ -210,12 +210,18 @@ void NdamSolver::rest_state() {
     // empty (the layout's validation refuses a layer that reaches into a 1D part). Before, such
     // a part refused the layer as holding no marker, so no layout with two 2D parts took one
     // (an independent run, session 44).
-    const bool layer_here = h0 > 0.0 && xa < nx * cfg_.grid.dx() && xb > 0.0;
-    if (layer_here) markers_->seed_rectangle(xa, xb, h0);
+    const double lx = nx * cfg_.grid.dx();
+    const double reach = std::min(xb, lx) - std::max(xa, 0.0);
+    if (h0 > 0.0 && reach > 0.0) markers_->seed_rectangle(xa, xb, h0);
     mass0_ = markers_->mass().area;
     // A layer too thin (or too short) for one marker would start an empty box without a word
-    // (an independent run: 'Initial depth' 1e-9 m, exit 0, mass 0).
-    if (layer_here && mass0_ == 0.0)
+    // (an independent run: 'Initial depth' 1e-9 m, exit 0, mass 0): refused where the layer lies
+    // in this box, or reaches into it by more than half a marker's spacing (less is a part's
+    // end meeting the layer's by round-off, e.g. a part rebuilt on a restart: no marker's
+    // centre lies there).
+    const double spacing = cfg_.grid.dx() / cfg_.markers_per_cell;
+    const bool whole_layer = xa >= -1e-9 * lx && xb <= lx * (1.0 + 1e-9);
+    if (h0 > 0.0 && mass0_ == 0.0 && (whole_layer || reach > 0.5 * spacing))
       throw params::InputError(
           "parameter 'granflow->N-DAM->Initial depth' = " + params::str(h0) +
           ": the layer on [" + params::str(cfg_.initial_x0) + ", " +

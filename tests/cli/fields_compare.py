@@ -46,7 +46,9 @@ def max_difference(path_a, path_b, times):
                 if a.shape != b.shape:
                     return None, f"{n} has shapes {a.shape} and {b.shape} at t = {t} s"
                 na, nb = np.isnan(a), np.isnan(b)
-                d = np.where(na & nb, 0.0, np.where(na | nb, np.inf, np.abs(a - b)))
+                # equal values (also infinities of one sign) differ by 0, not by inf - inf
+                d = np.where(na & nb, 0.0, np.where(na | nb, np.inf,
+                                                    np.where(a == b, 0.0, np.abs(a - b))))
                 if d.size and float(d.max()) > worst:
                     worst, where = float(d.max()), f"{n} at t = {t} s"
     return worst, where

@@ -666,7 +666,7 @@ TEST(Coupled2D, AWallSeriesOnlyWhereAModelResolvesTheWall) {
 // which the layer does not reach, refused it as "holding no marker" and no layout with two 2D
 // parts took an initial layer (an independent run, session 44: exit 2 with a message naming a
 // depth 16 times the minimum it quoted). Asserted: the scene builds, the layer's mass
-// (0.02 m x 0.2 m = 0.004 m^2, a whole number of markers: 2560 of 1e-4 / 16 m^2 at 10 mm) is
+// (0.02 m x 0.2 m = 0.004 m^2, a whole number of markers: 640 of 1e-4 / 16 m^2 at 10 mm) is
 // all in the wall part and none in the gate part, and after 0.3 s of sliding into the wall
 // (25 deg over delta = 22) the mass is conserved to round-off and none of it has left the wall
 // part (the layer only moves downslope).
@@ -695,7 +695,7 @@ TEST(Coupled2D, InitialLayerInOneOfTwoTwoDParts) {
               "gate part %.2e, 1D part %.2e m^2\n", c.end_time, end.current, end.defect(),
               cm.parts()[0].model->mass_balance().current,
               cm.parts()[1].model->mass_balance().current);
-  EXPECT_LT(std::abs(end.defect()), 1e-15);  // round-off of sums of 2560 marker areas
+  EXPECT_LT(std::abs(end.defect()), 1e-15);  // round-off of sums of 640 marker areas
   EXPECT_EQ(cm.parts()[0].model->mass_balance().current, 0.0);
   EXPECT_EQ(cm.parts()[1].model->mass_balance().current, 0.0);
 }

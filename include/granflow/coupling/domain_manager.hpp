@@ -19,8 +19,8 @@
 // a column collapsing). A deposit is never shrunk: in a column at rest |w|/|u| is 0/0 and 1/Fr^2
 // infinite, so rest is 2D.
 //
-// The target layout: 2D wherever eps >= 'Shallowness threshold', rest or a shock, widened by
-// 'Margin' on both sides (so the shock moving up from a wall stays inside 2D until the next
+// The target layout: 2D wherever eps >= 'Shallowness threshold', rest, a shock or slowing,
+// widened by 'Margin' on both sides (so the shock moving up from a wall stays inside 2D until the next
 // check: Margin must exceed the shock speed times the check interval); a 2D column becomes 1D
 // only once eps < 'Lower threshold' there has held for 'Hold time' (hysteresis), from the ends
 // of its subdomain (a subdomain calm all over goes as a whole); 1D pieces
