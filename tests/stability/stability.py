@@ -436,6 +436,12 @@ def run_case(c, exe, work):
             fails.append(f"exit code {p.returncode}, required 3")
         if not (re.search(r"t = [-0-9.e]+", r) and re.search(r"x = [-0-9.e]+", r)):
             fails.append(f"the diagnosis '{r}' does not name both a place (x = ) and a time (t = )")
+        # ... and the quantity, with its value (e.g. "nu_eff = 1 m^2/s"): a name = number other
+        # than the place, the time and a quoted parameter (an audit of the suite, session 44:
+        # only the place and the time were checked, against this docstring)
+        names = re.findall(r"([A-Za-z_|'][A-Za-z_0-9|']*) = [-+0-9.]", r)
+        if not any(n not in ("x", "z", "t") and not n.endswith("'") for n in names):
+            fails.append(f"the diagnosis '{r}' names no quantity with its value")
     res["pass"] = not fails
     res["failures"] = fails
     json.dump(res, open(os.path.join(d, "result.json"), "w"), indent=1)
