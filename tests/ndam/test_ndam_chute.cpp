@@ -1444,19 +1444,28 @@ TEST(NdamDepositLong, ColumnCollapseRestsWithinTheCreepBoundAt2p5mm) {
 
 namespace {
 // A block 3 cm deep and 0.1 m wide on a horizontal Coulomb bed (phi = 40, delta = 35 deg; the
-// column-collapse scene) in cells of dx, and its box's column count.
-std::unique_ptr<core::Stepper> block_on_a_horizontal_bed(double dx, int& nx) {
+// column-collapse scene) in cells of dx: its solver (null if the scene built another model) and
+// its box's column count.
+struct Block {
+  std::unique_ptr<core::Stepper> model;
+  ndam::NdamSolver* solver = nullptr;
+  int nx = 0;
+};
+Block block_on_a_horizontal_bed(double dx) {
   auto sc = scene::load(std::string(GRANFLOW_INPUTS) + "/ndam_column_collapse.xml");
   sc.params->sublist("Material").set("Internal friction angle", 40.0);
   sc.params->sublist("Material").set("Bed friction angle", 35.0);
   auto& n = sc.params->sublist("N-DAM");
-  nx = static_cast<int>(std::lround(sc.params->sublist("Channel").get<double>("Length") / dx));
-  n.set("Cells x", nx);
+  Block b;
+  b.nx = static_cast<int>(std::lround(sc.params->sublist("Channel").get<double>("Length") / dx));
+  n.set("Cells x", b.nx);
   n.set("Cells z", static_cast<int>(std::lround(0.1 / dx)));
   n.set("Height", 0.1);
   n.set("Initial depth", 0.03);
   n.set("Initial x1", 0.1);
-  return scene::build_model(sc);
+  b.model = scene::build_model(sc);
+  b.solver = dynamic_cast<ndam::NdamSolver*>(b.model.get());
+  return b;
 }
 }  // namespace
 
@@ -1482,10 +1491,10 @@ TEST(NdamDeposit, ToeOfABlockCarriesItsWeightOnTheBed) {
   for (const int cells_per_10cm : {10, 20}) {
     const double dx = 0.1 / cells_per_10cm;
     SCOPED_TRACE("dx = " + std::to_string(dx));
-    int nx = 0;
-    auto model = block_on_a_horizontal_bed(dx, nx);
-    auto* s = dynamic_cast<ndam::NdamSolver*>(model.get());
+    const auto block = block_on_a_horizontal_bed(dx);
+    auto* s = block.solver;
     ASSERT_NE(s, nullptr);
+    const int nx = block.nx;
     ASSERT_FALSE(mean_u_at(*s, {0.01}, 0.01).empty());
     const auto N = s->bed_normal_stress();
     const auto prof = s->profile();
@@ -1526,9 +1535,8 @@ TEST(NdamDeposit, RestingBlockPutsItsWeightOnTheBed) {
   for (const int cells_per_10cm : {10, 20}) {
     const double dx = 0.1 / cells_per_10cm;
     SCOPED_TRACE("dx = " + std::to_string(dx));
-    int nx = 0;
-    auto model = block_on_a_horizontal_bed(dx, nx);
-    auto* s = dynamic_cast<ndam::NdamSolver*>(model.get());
+    const auto block = block_on_a_horizontal_bed(dx);
+    auto* s = block.solver;
     ASSERT_NE(s, nullptr);
     const double g = 9.81;  // horizontal bed: g cos(zeta) = g
     double mean = 0.0, worst = 0.0;
