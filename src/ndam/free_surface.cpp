@@ -520,7 +520,13 @@ void NdamSolver::update_profile_cache(bool flag_depths) {
     // side continuously; a share that would fall on a column without markers (beyond a front,
     // at the box ends) stays with the marker's own column, so a front keeps its depth.
     const double dx = cfg_.grid.dx(), a = markers_->marker_area();
-    std::vector<double> hs(static_cast<std::size_t>(nx), 0.0);
+    // The shares are summed in fixed point, as integer multiples of 2^-32 of a marker: exact,
+    // so a column's depth does not depend on the order of the markers in a rank's list. In
+    // floating point it did: a restart on two ranks holds the same markers in another order,
+    // and the depth's round-off moved the pressure by 1e-12 (cli.restart_exact_2d_np2).
+    constexpr double kShareUnit = 4294967296.0;  // 2^32 units per marker
+    constexpr long long kWhole = 4294967296LL;
+    std::vector<long long> hs(static_cast<std::size_t>(nx), 0);
     // one marker row of a column (n markers of area a over dx): the depth quantum between
     // neighbours of a level layer is one marker, a few at most; a larger step is the shape of
     // the surface (a pile's toe, a front), which the sharing would smooth and so move
@@ -535,16 +541,20 @@ void NdamSolver::update_profile_cache(bool flag_depths) {
       const double s = m.x / dx - (own + 0.5);  // in [-1/2, 1/2): the offset from the centre
       int other = s >= 0.0 ? own + 1 : own - 1;
       if (cfg_.periodic_x()) other = (other % nx + nx) % nx;
-      const double w = std::abs(s);
+      const long long w = std::llround(std::abs(s) * kShareUnit);  // in [0, kWhole / 2]
       if (has(own, other)) {
-        hs[static_cast<std::size_t>(own)] += (1.0 - w) * a / dx;
-        hs[static_cast<std::size_t>(other)] += w * a / dx;
+        hs[static_cast<std::size_t>(own)] += kWhole - w;
+        hs[static_cast<std::size_t>(other)] += w;
       } else {
-        hs[static_cast<std::size_t>(own)] += a / dx;
+        hs[static_cast<std::size_t>(own)] += kWhole;
       }
     }
+    std::vector<long long> units(static_cast<std::size_t>(nx), 0);
+    MPI_Allreduce(hs.data(), units.data(), nx, MPI_LONG_LONG, MPI_SUM, comm_);
     col_hs_.assign(static_cast<std::size_t>(nx), 0.0);
-    MPI_Allreduce(hs.data(), col_hs_.data(), nx, MPI_DOUBLE, MPI_SUM, comm_);
+    for (int gi = 0; gi < nx; ++gi)
+      col_hs_[static_cast<std::size_t>(gi)] =
+          static_cast<double>(units[static_cast<std::size_t>(gi)]) / kShareUnit * (a / dx);
     // Both consistent forms ('Material share' too: its share f and surface pressure take this
     // depth) then spread the depth over about two cells. A layer whose depth ends between two
     // marker rows cannot give its columns the same count: the partial row's markers leave a
