@@ -27,8 +27,9 @@ void usage(std::ostream& os) {
         "       granflow --parameters\n"
         "       granflow --help\n\n"
         "Runs a granular-flow scene written as a Teuchos ParameterList XML file (see inputs/ and\n"
-        "docs/parameters.md) and writes profiles.csv, fields.h5 + fields.xdmf, checkpoint.h5,\n"
-        "summary.json and run.json into the scene's 'Output->Directory'. A run owns that\n"
+        "docs/parameters.md) and writes profiles.csv, fields.h5 + fields.xdmf (snapshots in\n"
+        "fields.h5.d/), checkpoint.h5, wall.csv (channels with a wall end), summary.json and\n"
+        "run.json into the scene's 'Output->Directory'. A run owns that\n"
         "directory: a rerun of the same scene replaces its files; another scene's files there\n"
         "stop the run (exit 2) unless --overwrite is given.\n\n"
         "options:\n"
@@ -37,12 +38,13 @@ void usage(std::ostream& os) {
         "  --overwrite   replace the files of another scene's run in the run directory\n"
         "  --parameters  print the full parameter reference (Markdown) generated from the code\n"
         "  --help        this text\n\n"
-        "SIGINT (Ctrl-C) or SIGTERM ends the step in progress, writes checkpoint.h5 of the last\n"
+        "SIGINT (Ctrl-C), SIGTERM or SIGHUP (unless ignored, as under nohup) ends the step in\n"
+        "progress, writes checkpoint.h5 of the last\n"
         "accepted state and summary.json with status \"interrupted\"; a second signal ends the\n"
         "run at once (one line says so; no checkpoint of that step).\n\n"
         "exit codes: 0 completed, 1 usage, 2 invalid input, 3 diverged (last good output and\n"
         "checkpoint kept), 4 runtime error, 5 step limit reached, 128 + signal when interrupted\n"
-        "(130 SIGINT, 143 SIGTERM)\n";
+        "(130 SIGINT, 143 SIGTERM, 129 SIGHUP)\n";
 }
 }  // namespace
 

@@ -99,6 +99,8 @@ granflow_cli_test(dam_position_outside 2 "Position' = 2.*outside the channel.*\\
 # the dynamic layout's own checks, and initial material that the other model's part would drop
 granflow_cli_test(dynamic_hold_below_check 2 "Hold time' = 0: must be at least 'Check interval' = 0.005"
                   ${_cli}/bad_dynamic_hold.xml)
+granflow_cli_test(dynamic_check_above_default_hold 2 "Check interval' = 100: must not exceed 'Hold time' = 0.05 s \\(its default"
+                  ${_cli}/bad_dynamic_check_above_hold.xml)
 granflow_cli_test(dynamic_min_length_above_channel 2 "Minimum length' = 2: must not exceed the channel length L = 1"
                   ${_cli}/bad_dynamic_min_length.xml)
 granflow_cli_test(dynamic_interface_off_node 0 "valid scene.*note: parameter .granflow->Decomposition->Interfaces. = 0.2000001 lies between the nodes.*multiples of 0.005 m.*starts from the nearest, 0.2 m"
