@@ -87,6 +87,14 @@ def variant_xml(family, variant, args, outdir):
         text = set_param(text, "Cells z", "int", int(round(h / dz)))
     if args.end:
         text = set_param(text, "End time", "double", args.end)
+    if args.surface_cell_mass:
+        # every variant, the reference too: the forms are compared each against its own full 2D
+        if 'name="Surface cell mass"' in text:
+            text = set_param(text, "Surface cell mass", "string", args.surface_cell_mass)
+        else:
+            text = text.replace('<ParameterList name="N-DAM">',
+                                '<ParameterList name="N-DAM">\n    <Parameter name="Surface cell '
+                                'mass" type="string" value="%s"/>' % args.surface_cell_mass, 1)
     if variant == "dynamic":
         for item in args.set or []:
             name, _, value = item.partition("=")
@@ -416,6 +424,10 @@ def main():
     ap.add_argument("--set", action="append", metavar="NAME=VALUE",
                     help="set a parameter of the dynamic scene (repeatable), e.g. "
                          "--set 'Shallowness threshold=0.05'")
+    ap.add_argument("--surface-cell-mass", choices=["Full cell", "Full cell and weight",
+                                                    "Material share"],
+                    help="N-DAM->Surface cell mass of every variant, full 2D included (default: "
+                         "the scenes', i.e. the code's default)")
     ap.add_argument("--variants", nargs="+", default=VARIANTS, choices=VARIANTS,
                     help="the layouts to run (full and dynamic always: the reference and the "
                          "ideal saving)")
