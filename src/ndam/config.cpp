@@ -206,7 +206,10 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              d.surface_mass_share ? "Material share"
                                   : (d.full_cell_weight ? "Full cell and weight" : "Full cell"),
              "mass of a partly filled Surface cell (its top side empty) in the momentum step. "
-             "Full cell: NaSt2D's and the paper's; such a cell is driven by gravity over its "
+             "Material share (the default; Implicit momentum only, so a scene with Momentum = "
+             "Explicit sets one of the other two): the rows of its faces weight mass and "
+             "non-viscous forces by the share of the cells that holds material. "
+             "Full cell: NaSt2D's (the default until session 45); such a cell is driven by gravity over its "
              "whole volume but held by the friction of the true depth, so a layer whose depth "
              "ends inside a cell slides ahead of its friction law (5 mm cells, 30/22/33 deg: "
              "+15 to +126 % at 0.46-4.3 cells), a viscous film flows as if as deep as its top "
@@ -215,9 +218,8 @@ Teuchos::RCP<const Teuchos::ParameterList> NdamConfig::getValidParameters() {
              "below delta = 28 deg accelerates). Full cell and "
              "weight: the same mass, and the bed friction and the yield pressure of the "
              "column's cells loaded with the weight of the full cells, so a plug follows its "
-             "law and a layer below delta rests. Material share: the rows of its faces weight "
-             "mass and non-viscous forces by the share of the cells that holds material "
-             "(Implicit momentum only). Both take a column depth that shares each marker "
+             "law and a layer below delta rests. The two consistent forms (Material share, "
+             "Full cell and weight) take a column depth that shares each marker "
              "between its two nearest columns and is spread over about two cells: a plug "
              "follows its law within 1 % at 0.46-4.3 cells (2.5-10 mm, six angle sets, "
              "Regularisation 100 and, deeper than a cell, 1e4; the Material share within "
@@ -351,13 +353,19 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                                                              : Momentum::Implicit;
   c.cfl = pl.get<double>("CFL");
   c.viscous_surface_number = pl.get<double>("Viscous surface number");
-  c.surface_mass_share = pl.get<std::string>("Surface cell mass") == "Material share";
-  c.full_cell_weight = pl.get<std::string>("Surface cell mass") == "Full cell and weight";
+  // (the surface cell mass is a setting of the free surface: without one every material cell
+  // is full, and a closed box with Momentum = Explicit does not meet the share's refusal)
+  c.surface_mass_share = pl.get<bool>("Free surface") &&
+                         pl.get<std::string>("Surface cell mass") == "Material share";
+  c.full_cell_weight = pl.get<bool>("Free surface") &&
+                       pl.get<std::string>("Surface cell mass") == "Full cell and weight";
   if (c.surface_mass_share && c.momentum == Momentum::Explicit)
     params::fail(pl, "Surface cell mass", "Material share",
                  "the material share weights the mass of the implicit momentum step; with "
                  "Momentum = Explicit it would divide the explicit viscous stress by it; "
-                 "allowed with Explicit: Full cell or Full cell and weight");
+                 "allowed with Explicit: Full cell or Full cell and weight (Material share is "
+                 "the default: a scene with Momentum = Explicit and a free surface sets one of "
+                 "them)");
   {
     const std::string sp = pl.get<std::string>("Surface pressure");
     c.ghost_surface = sp != "Surface cells";

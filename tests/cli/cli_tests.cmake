@@ -341,6 +341,7 @@ if(Python3_Interpreter_FOUND)
   granflow_mutant_test(viscous_surface_number_explicit setup2_coupled.xml
                        "N-DAM->Viscous surface number' = 20: a step limit of the implicit momentum step, and 'Momentum' = Explicit"
                        --set "N-DAM->Momentum" "Explicit"
+                       --add "N-DAM->Surface cell mass" string "Full cell and weight"
                        --add "N-DAM->Viscous surface number" double 20)
   granflow_mutant_test(markers_without_free_surface ndam_cavity_re100.xml
                        "N-DAM->Markers per cell' = 8: a setting of the free surface, and 'Free surface' = false"

