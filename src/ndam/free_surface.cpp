@@ -524,8 +524,8 @@ void NdamSolver::update_profile_cache(bool flag_depths) {
     // so a column's depth does not depend on the order of the markers in a rank's list. In
     // floating point it did: a restart on two ranks holds the same markers in another order,
     // and the depth's round-off moved the pressure by 1e-12 (cli.restart_exact_2d_np2).
-    constexpr double kShareUnit = 4294967296.0;  // 2^32 units per marker
-    constexpr long long kWhole = 4294967296LL;
+    constexpr long long kWhole = 1LL << 32;  // one marker, in units
+    constexpr double kShareUnit = static_cast<double>(kWhole);
     std::vector<long long> hs(static_cast<std::size_t>(nx), 0);
     // one marker row of a column (n markers of area a over dx): the depth quantum between
     // neighbours of a level layer is one marker, a few at most; a larger step is the shape of
