@@ -182,21 +182,21 @@ Decomposition Decomposition::from_parameters(const Teuchos::ParameterList& pl,
                  "must be below 'Shallowness threshold' = " + params::str(d.eps_threshold) +
                      " (the hysteresis between the two keeps interfaces from flickering); "
                      "allowed: 0 <= Lower threshold < " + params::str(d.eps_threshold));
-  // (the parameter the scene changed is the one named: a raised 'Check interval' against the
-  // default 'Hold time' was reported as a wrong Hold time; an independent run)
-  if (d.layout == "Dynamic" && d.hold_time < d.check_interval && user &&
-      user->isParameter("Check interval") && !user->isParameter("Hold time"))
-    params::fail(pl, "Check interval", params::str(d.check_interval),
-                 "must not exceed 'Hold time' = " + params::str(d.hold_time) +
-                     " s (its default; a column goes back to 1D only once it was calm at two "
-                     "checks); allowed: Check interval <= " + params::str(d.hold_time) +
-                     " s, or a 'Hold time' of at least the Check interval");
-  if (d.layout == "Dynamic" && d.hold_time < d.check_interval)
+  if (dynamic && d.hold_time < d.check_interval) {
+    // the parameter the scene changed is the one named: a raised 'Check interval' against the
+    // default 'Hold time' was reported as a wrong Hold time (an independent run)
+    if (user && user->isParameter("Check interval") && !user->isParameter("Hold time"))
+      params::fail(pl, "Check interval", params::str(d.check_interval),
+                   "must not exceed 'Hold time' = " + params::str(d.hold_time) +
+                       " s (its default; a column goes back to 1D only once it was calm at two "
+                       "checks); allowed: Check interval <= " + params::str(d.hold_time) +
+                       " s, or a 'Hold time' of at least the Check interval");
     params::fail(pl, "Hold time", params::str(d.hold_time),
                  "must be at least 'Check interval' = " + params::str(d.check_interval) +
                      " s (a column goes back to 1D only once it was calm at two checks; a "
                      "shorter hold lets an interface flip at every check); allowed: Hold time >= " +
                      params::str(d.check_interval) + " s");
+  }
   if (d.layout != "Static" && d.min_length > channel.length)
     params::fail(pl, "Minimum length", params::str(d.min_length),
                  "must not exceed the channel length L = " + params::str(channel.length) +

@@ -353,12 +353,12 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
                                                              : Momentum::Implicit;
   c.cfl = pl.get<double>("CFL");
   c.viscous_surface_number = pl.get<double>("Viscous surface number");
+  c.free_surface = pl.get<bool>("Free surface");
   // (the surface cell mass is a setting of the free surface: without one every material cell
   // is full, and a closed box with Momentum = Explicit does not meet the share's refusal)
-  c.surface_mass_share = pl.get<bool>("Free surface") &&
-                         pl.get<std::string>("Surface cell mass") == "Material share";
-  c.full_cell_weight = pl.get<bool>("Free surface") &&
-                       pl.get<std::string>("Surface cell mass") == "Full cell and weight";
+  const std::string mass = pl.get<std::string>("Surface cell mass");
+  c.surface_mass_share = c.free_surface && mass == "Material share";
+  c.full_cell_weight = c.free_surface && mass == "Full cell and weight";
   if (c.surface_mass_share && c.momentum == Momentum::Explicit)
     params::fail(pl, "Surface cell mass", "Material share",
                  "the material share weights the mass of the implicit momentum step; with "
@@ -405,7 +405,6 @@ NdamConfig NdamConfig::from_parameters(const Teuchos::ParameterList& pl,
     params::fail(b, "Right", b.get<std::string>("Right"),
                  "Periodic must be set on Left and Right together (Left is '" +
                      b.get<std::string>("Left") + "'); allowed: Periodic on both or on neither");
-  c.free_surface = pl.get<bool>("Free surface");
   c.markers_per_cell = pl.get<int>("Markers per cell");
   c.fill_marker_voids = pl.get<bool>("Fill marker voids");
   c.balance_material = pl.get<std::string>("Load balance") == "Material";
