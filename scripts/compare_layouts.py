@@ -61,6 +61,45 @@ def set_param(text, name, typ, value):
     return new
 
 
+_PARAMETERS = {}
+
+
+def coupled_parameters(build):
+    """{list name: {parameter: type}} of the Coupled model's settable lists, from BUILD's
+    `granflow --parameters` (the types as the code declares them; nothing copied here)."""
+    if build not in _PARAMETERS:
+        out = subprocess.run([os.path.join(build, "apps", "granflow"), "--parameters"],
+                             capture_output=True, text=True).stdout
+        lists, model, current = {}, None, None
+        for line in out.splitlines():
+            m = re.match(r"## Model `([^`]*)`", line)
+            if m:
+                model, current = m.group(1), None
+                continue
+            m = re.match(r"#+ `([^`]*)`", line)
+            if m:
+                current = m.group(1) if model == "Coupled" and m.group(1) in SETTABLE else None
+                continue
+            m = re.match(r"\| `([^`]*)` \| ([^|]*) \|", line)
+            if m and current:
+                lists.setdefault(current, {})[m.group(1)] = m.group(2).strip()
+        _PARAMETERS[build] = lists
+    return _PARAMETERS[build]
+
+
+def add_default_param(build, text, name):
+    """text with NAME added at the head of the settable list that declares it, and a match
+    object-like holder of its type; (text, None) when no settable list has it."""
+    for lst, params in coupled_parameters(os.path.abspath(build)).items():
+        if name in params and '<ParameterList name="%s">' % lst in text:
+            typ = params[name]
+            text = text.replace('<ParameterList name="%s">' % lst,
+                                '<ParameterList name="%s">\n    <Parameter name="%s" type="%s" '
+                                'value=""/>' % (lst, name, typ), 1)
+            return text, re.search(r'type="([^"]*)"', 'type="%s"' % typ)
+    return text, None
+
+
 def variant_xml(family, variant, args, outdir):
     spec = FAMILIES[family]
     text = open(os.path.join(ROOT, "inputs", spec[variant])).read()
@@ -99,6 +138,11 @@ def variant_xml(family, variant, args, outdir):
         for item in args.set or []:
             name, _, value = item.partition("=")
             typ = re.search(r'<Parameter name="%s" type="([^"]*)"' % re.escape(name), text)
+            if not typ and value:
+                # a parameter the scene leaves at its default (Margin, Hold time, ...): added
+                # to its list with the type granflow --parameters gives it (it was refused as
+                # unknown, although the dynamic run takes it)
+                text, typ = add_default_param(args.build, text, name)
             if not typ or not value:
                 raise SystemExit("compare_layouts: --set '%s': the dynamic scene has no "
                                  "parameter of that name (or no value given)" % item)
@@ -422,8 +466,9 @@ def main():
                     help="[m] width of the wall's deposit mean (at least one column; default 0.01)")
     ap.add_argument("--rerun", action="store_true", help="run even where a result exists")
     ap.add_argument("--set", action="append", metavar="NAME=VALUE",
-                    help="set a parameter of the dynamic scene (repeatable), e.g. "
-                         "--set 'Shallowness threshold=0.05'")
+                    help="set a parameter of the dynamic scene's Decomposition or DAM list "
+                         "(repeatable), e.g. --set 'Shallowness threshold=0.05'; one the scene "
+                         "leaves at its default is added with the type granflow gives it")
     ap.add_argument("--surface-cell-mass", choices=["Full cell", "Full cell and weight",
                                                     "Material share"],
                     help="N-DAM->Surface cell mass of every variant, full 2D included (default: "

@@ -509,6 +509,11 @@ granflow_script_test(compare_layouts_unknown_set 1 "--set 'Bogus=1': the dynamic
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --set Bogus=1)
 granflow_script_test(compare_layouts_bad_set_value 2 "Decomposition->Margin' = .abc.: not a decimal number"
                      compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --set Margin=abc)
+# a parameter the scene leaves at its default is added with the type the code gives it (the
+# lab chute's dynamic scene sets no Hold time: --set 'Hold time=...' was refused as unknown);
+# the value then reaches granflow's own validator
+granflow_script_test(compare_layouts_set_a_default_parameter 2 "Decomposition->Hold time' = .abc.: not a decimal number"
+                     compare_layouts.py ${CMAKE_BINARY_DIR} script_refusals --family lab_chute --set "'Hold time=abc'")
 # --set changes the dynamic run only, so only its own lists' parameters (a slope set there
 # compared a 30 deg run with the 50 deg reference, exit 0; an independent run)
 granflow_script_test(compare_layouts_set_outside_the_layout 1 "--set 'Slope angle=30': 'Slope angle' is a parameter of Channel, which the reference run shares"
