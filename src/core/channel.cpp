@@ -203,6 +203,12 @@ double InflowSeries::discharge(double t0, double t1) const {
   sum += (t1 - a) / 6.0 * (q(a) + 4.0 * q(0.5 * (a + t1)) + q(t1));
   return sum;
 }
+std::vector<double> InflowSeries::rows_between(double t0, double t1) const {
+  std::vector<double> out;
+  for (auto it = std::upper_bound(t_.begin(), t_.end(), t0); it != t_.end() && *it < t1; ++it)
+    out.push_back(*it);
+  return out;
+}
 double InflowSeries::max_depth() const { return *std::max_element(h_.begin(), h_.end()); }
 double InflowSeries::max_speed() const {
   double m = 0.0;

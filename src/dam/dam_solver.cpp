@@ -159,7 +159,10 @@ DamBoundary DamBoundary::from(const core::BoundarySpec& spec) {
     b.inflow = [s](double t, double) {
       return std::array<double, 2>{s.depth(t), s.velocity(t)};
     };
-    if (!s.is_constant()) b.volume = [s](double t0, double t1) { return s.discharge(t0, t1); };
+    if (!s.is_constant()) {
+      b.volume = [s](double t0, double t1) { return s.discharge(t0, t1); };
+      b.rows = [s](double t0, double t1) { return s.rows_between(t0, t1); };
+    }
   }
   return b;
 }
@@ -309,6 +312,34 @@ bool DamSolver::wall_centred(int j, int n, bool on_b) const {
 // end, - at the right), the exact volume of the series over the step divided by dt.
 double DamSolver::series_discharge(const DamBoundary& b, int side, double dt) const {
   return (side == 0 ? 1.0 : -1.0) * b.volume(t_, t_ + dt) / dt;
+}
+
+// An inflow series' mean momentum fluxes over the step [t, t + dt]: {advective h u^2, h^2 / 2}
+// of the gate state, averaged over the step by Simpson's rule on each piece between the series'
+// rows (the interior's end state held at h_end, hu_end). Where the gate state is the series'
+// own (a supercritical gate), h u^2 is cubic and h^2 quadratic on each piece, so the mean is
+// exact: the momentum that enters no longer depends on where the steps fall. Sampled at
+// t + dt/2 alone, a 20 ms pulse brought in 6.08e-4 m^3/s of momentum with steps of 10 ms and
+// 3.64e-4 with 0.1 ms (+67 %; the mass exact in both), and a 2 ms pulse between two samples
+// entered with none (an independent run).
+std::array<double, 2> DamSolver::series_momentum(const DamBoundary& b, int side, double dt,
+                                                 double x, double h_end, double hu_end) const {
+  auto flux = [&](double t) {
+    const auto s = gate_state(b, side, t, x, h_end, hu_end);
+    return std::array<double, 2>{s[0] * s[1] * s[1], 0.5 * s[0] * s[0]};
+  };
+  std::array<double, 2> sum{0.0, 0.0};
+  const double t1 = t_ + dt;
+  double a = t_;
+  auto piece = [&](double e) {
+    const auto fa = flux(a), fm = flux(0.5 * (a + e)), fe = flux(e);
+    for (int q = 0; q < 2; ++q) sum[q] += (e - a) / 6.0 * (fa[q] + 4.0 * fm[q] + fe[q]);
+    a = e;
+  };
+  if (b.rows)
+    for (double r : b.rows(t_, t1)) piece(r);
+  piece(t1);
+  return {sum[0] / dt, sum[1] / dt};
 }
 
 std::array<double, 2> DamSolver::gate_state(const DamBoundary& b, int side, double t, double x,
@@ -666,9 +697,12 @@ void DamSolver::step_once(double dt) {
     // of gate_state); the mass that enters is the step's exact volume instead, the integral of
     // h u over the step, so that a hydrograph's volume does not depend on where the steps fall
     // (a gate shut inside a step admitted the midpoint's flux: -0.07 % with outputs every
-    // 0.013 s against 0.05 s). The momentum flux stays that of the state.
-    return {b.volume ? series_discharge(b, side, dt) : s[0] * s[1],
-            s[0] * s[1] * s[1] + 0.5 * bc * s[0] * s[0]};
+    // 0.013 s against 0.05 s). Its momentum flux is the step's mean too (series_momentum).
+    if (b.volume) {
+      const auto m = series_momentum(b, side, dt, x_end, hm[e], hum[e]);
+      return {series_discharge(b, side, dt), m[0] + bc * m[1]};
+    }
+    return {s[0] * s[1], s[0] * s[1] * s[1] + 0.5 * bc * s[0] * s[0]};
   };
   std::array<double, 2> F_left{0.0, 0.0}, F_right{0.0, 0.0};
   const auto K_range = phys_.K_bounds();
@@ -875,6 +909,11 @@ void DamSolver::euler_stage(const std::vector<double>& h0, const std::vector<dou
       Hm[fs] = end->volume ? series_discharge(*end, f == 0 ? 0 : 1, dt) : s[0] * s[1];
       Ha[fs] = s[0] * s[1] * s[1];
       P[fs] = 0.5 * s[0] * s[0];
+      if (end->volume) {  // and the step's mean momentum flux (series_momentum)
+        const auto m = series_momentum(*end, f == 0 ? 0 : 1, dt, f == 0 ? x0_ : x1_, h[e], hu[e]);
+        Ha[fs] = m[0];
+        P[fs] = m[1];
+      }
       continue;
     }
     double hl = std::max(0.0, h[L] + 0.5 * sh[L]), hr = std::max(0.0, h[R] - 0.5 * sh[R]);

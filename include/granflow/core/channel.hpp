@@ -24,6 +24,8 @@ class InflowSeries {
   /// The volume per unit width that enters in [t0, t1], the integral of h(t) u(t) [m^2]: exact
   /// for the piecewise-linear series (Simpson's rule between its rows, where h u is quadratic).
   double discharge(double t0, double t1) const;
+  /// The series' rows strictly inside (t0, t1): h and u are linear between them.
+  std::vector<double> rows_between(double t0, double t1) const;
   bool is_constant() const { return t_.size() <= 1; }
   std::size_t rows() const { return t_.size(); }  ///< the series' rows (1: constant)
   /// The file the series was read from, resolved against the scene's directory as the other

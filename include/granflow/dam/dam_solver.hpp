@@ -105,6 +105,8 @@ struct DamBoundary {
   /// A prescribed inflow series (not constant): the volume per unit width that enters in
   /// [t0, t1], the exact integral of h u; empty otherwise.
   std::function<double(double t0, double t1)> volume;
+  /// The same series' rows strictly inside (t0, t1) (the state is linear in t between them)
+  std::function<std::vector<double>(double t0, double t1)> rows;
   static DamBoundary from(const core::BoundarySpec& spec);
 };
 
@@ -212,6 +214,8 @@ class DamSolver final : public core::Stepper {
   /// compatible with the characteristic that leaves the channel there, otherwise the state that
   /// keeps the prescribed discharge (see the definition).
   double series_discharge(const DamBoundary& b, int side, double dt) const;
+  std::array<double, 2> series_momentum(const DamBoundary& b, int side, double dt, double x,
+                                        double h_end, double hu_end) const;
   std::array<double, 2> gate_state(const DamBoundary& b, int side, double t, double x,
                                    double h_end, double hu_end) const;
   bool wall_centred(int j, int n, bool on_b) const;
