@@ -88,15 +88,14 @@ def coupled_parameters(build):
 
 
 def add_default_param(build, text, name):
-    """text with NAME added at the head of the settable list that declares it, and a match
-    object-like holder of its type; (text, None) when no settable list has it."""
+    """(text with NAME added, empty, at the head of the settable list that declares it, its
+    type); (text, None) when no settable list of the scene has it."""
     for lst, params in coupled_parameters(os.path.abspath(build)).items():
         if name in params and '<ParameterList name="%s">' % lst in text:
-            typ = params[name]
             text = text.replace('<ParameterList name="%s">' % lst,
                                 '<ParameterList name="%s">\n    <Parameter name="%s" type="%s" '
-                                'value=""/>' % (lst, name, typ), 1)
-            return text, re.search(r'type="([^"]*)"', 'type="%s"' % typ)
+                                'value=""/>' % (lst, name, params[name]), 1)
+            return text, params[name]
     return text, None
 
 
@@ -137,7 +136,8 @@ def variant_xml(family, variant, args, outdir):
     if variant == "dynamic":
         for item in args.set or []:
             name, _, value = item.partition("=")
-            typ = re.search(r'<Parameter name="%s" type="([^"]*)"' % re.escape(name), text)
+            found = re.search(r'<Parameter name="%s" type="([^"]*)"' % re.escape(name), text)
+            typ = found.group(1) if found else None
             if not typ and value:
                 # a parameter the scene leaves at its default (Margin, Hold time, ...): added
                 # to its list with the type granflow --parameters gives it (it was refused as
@@ -157,7 +157,7 @@ def variant_xml(family, variant, args, outdir):
                                  "dynamic run's own lists only: %s" % (
                                      item, name, ", ".join(sorted(lists)),
                                      ", ".join(sorted(SETTABLE))))
-            text = set_param(text, name, typ.group(1), value)
+            text = set_param(text, name, typ, value)
     if args.interval:
         text = set_param(text, "Interval", "double", args.interval)
     d = os.path.abspath(os.path.join(outdir, variant))
